@@ -1,0 +1,3 @@
+"""seawatch: a visual dimension for Vessel Traffic Services."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,161 @@
+"""The ``seawatch`` command line.
+
+Each subcommand has a pair of functions here, ``_add_<name>`` (its arguments and help) and
+``_cmd_<name>`` (what it does, importing its stages lazily so ``--help`` stays fast).  This module
+and :mod:`seawatch.pipeline` are the only places that know every stage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from seawatch import __version__
+from seawatch.config import ConfigError
+
+EXIT_OK = 0
+EXIT_FAIL = 1
+EXIT_USAGE = 2
+
+
+class CLIError(Exception):
+    """An error the user can fix; printed without a traceback."""
+
+
+def _formatter(prog):
+    return argparse.RawDescriptionHelpFormatter(prog, max_help_position=32)
+
+
+# -------------------------------------------------------------------------- run
+def _add_run(sub) -> None:  # owner: pipeline
+    sub.add_parser("run", help="run the pipeline on a video file, image folder or stream", formatter_class=_formatter)
+
+
+def _cmd_run(args) -> int:  # owner: pipeline
+    raise CLIError("not available yet")
+
+
+# ------------------------------------------------------------------------- demo
+def _add_demo(sub) -> None:  # owner: pipeline
+    sub.add_parser("demo", help="render the built-in harbour scene and run the whole pipeline on it", formatter_class=_formatter)
+
+
+def _cmd_demo(args) -> int:  # owner: pipeline
+    raise CLIError("not available yet")
+
+
+# -------------------------------------------------------------------------- sim
+def _add_sim(sub) -> None:  # owner: simulator
+    sub.add_parser("sim", help="render a synthetic scenario to video with exact ground truth and AIS", formatter_class=_formatter)
+
+
+def _cmd_sim(args) -> int:  # owner: simulator
+    raise CLIError("not available yet")
+
+
+# ------------------------------------------------------------------------- eval
+def _add_eval(sub) -> None:  # owner: evaluation
+    sub.add_parser("eval", help="score predictions against ground truth and write a report", formatter_class=_formatter)
+
+
+def _cmd_eval(args) -> int:  # owner: evaluation
+    raise CLIError("not available yet")
+
+
+# ---------------------------------------------------------------- train-cascade
+def _add_train_cascade(sub) -> None:  # owner: cascade trainer
+    sub.add_parser("train-cascade", help="train a boosted Haar cascade and write OpenCV cascade XML", formatter_class=_formatter)
+
+
+def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
+    raise CLIError("not available yet")
+
+
+# ------------------------------------------------------------------------ sweep
+def _add_sweep(sub) -> None:  # owner: stable-features tracker
+    sub.add_parser("sweep", help="parameter sensitivity study of the stable-features tracker", formatter_class=_formatter)
+
+
+def _cmd_sweep(args) -> int:  # owner: stable-features tracker
+    raise CLIError("not available yet")
+
+
+# --------------------------------------------------------------------------------------- bench
+def _add_bench(sub) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="run the speed and accuracy benchmarks and print one table",
+        description=(
+            "Run the benchmark suite (benchmarks/bench_*.py) on the real data in --data (default "
+            "../shared/data beside the repository) and on the synthetic scenarios. Prints one "
+            "table, appends every figure to benchmarks/results/<benchmark>.jsonl and writes the "
+            "latest figures to benchmarks/results/<benchmark>.json."
+        ),
+        formatter_class=_formatter,
+    )
+    p.add_argument("--only", action="append", metavar="NAME", help="run only this benchmark (repeatable)")
+    p.add_argument("--list", action="store_true", help="list the benchmarks and exit")
+    p.add_argument("--data", type=Path, help="data directory (default: ../shared/data when present)")
+    p.add_argument("--results", type=Path, help="results directory (default: benchmarks/results)")
+    p.add_argument("--quick", action="store_true", help="fewer repeats and frames, for a smoke run")
+
+
+def _cmd_bench(args) -> int:
+    from seawatch.eval.bench import default_data_dir, discover, format_table, run_benchmarks
+
+    if args.list:
+        for name, mod in discover().items():
+            print(f"{name:24s} {getattr(mod, 'DESCRIPTION', '')}")
+        return EXIT_OK
+    data = args.data if args.data is not None else default_data_dir()
+    if args.data is not None and not args.data.is_dir():
+        raise CLIError(f"--data {args.data}: not a directory")
+    rows = run_benchmarks(
+        only=args.only, data_dir=data, results_dir=args.results, quick=args.quick,
+        command="seawatch " + " ".join(sys.argv[1:]),
+    )
+    print()
+    print(format_table(rows))
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------- the parser
+COMMANDS = ["run", "demo", "sim", "eval", "bench", "train-cascade", "sweep"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="seawatch",
+        description=(
+            "seawatch: detect and track vessels in EO/IR video, fuse them with AIS and radar, "
+            "and flag vessels that AIS does not report."
+        ),
+        formatter_class=_formatter,
+    )
+    parser.add_argument("--version", action="version", version=f"seawatch {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMANDS:
+        globals()[f"_add_{name.replace('-', '_')}"](sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.command:
+        parser.print_help()
+        return EXIT_USAGE
+    func = globals()[f"_cmd_{args.command.replace('-', '_')}"]
+    try:
+        return int(func(args) or 0)
+    except (CLIError, ConfigError, FileNotFoundError) as exc:
+        print(f"seawatch {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_FAIL
+    except KeyboardInterrupt:
+        print(f"seawatch {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

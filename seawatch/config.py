@@ -1,0 +1,186 @@
+"""One validated configuration for a seawatch run.
+
+A TOML file is read into typed, frozen settings (nested dataclasses, one per section).  An
+unknown or mistyped key is an error that names the key, its section and the file; values of the
+wrong type are errors too.  Command-line overrides use dotted keys: ``detector.kind=cascade``.
+
+Every stage owns one section; adding a setting means adding a field with a default to that
+section's dataclass, nothing more.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import tomllib
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["ConfigError", "Config", "load_config", "apply_overrides", "config_to_dict"]
+
+
+class ConfigError(ValueError):
+    """An invalid configuration: the message names the key and where it came from."""
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    camera_id: str = "cam0"
+    modality: str = "EO"  # EO or IR
+    fps: float = 0.0  # 0: take it from the source (25 when the source does not say)
+    max_frames: int = 0  # 0: all
+    progress: bool = True
+    max_bad_frames_in_row: int = 50  # a live source that yields this many bad frames in a row has dropped
+
+
+@dataclass(frozen=True)
+class DetectorSettings:
+    kind: str = "mog2"  # mog2 | cascade | robust_kalman | stable_features
+    # MOG2 baseline
+    mog2_history_s: float = 20.0
+    mog2_var_threshold: float = 16.0
+    mog2_learning_rate: float = -1.0
+    min_area_px: float = 30.0
+    max_area_frac: float = 0.25
+    # cascade (paper A)
+    cascade_model: str = ""  # empty: the shipped model
+    scale_factor: float = 1.1
+    min_neighbors: int = 5
+    min_size_px: int = 0  # smallest boat to find, in pixels of the source image; 0: automatic
+    detection_width_px: int = 0  # 0: automatic
+    horizon_filter: bool = True
+    reflection_filter: bool = True
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    kind: str = "sort"  # sort | ptracking | stable_features
+    confirm_hits: int = 3
+    confirm_window_s: float = 1.0
+    max_coast_s: float = 2.0
+    iou_gate: float = 0.1
+    num_particles: int = 500
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class FusionSettings:
+    enabled: bool = True
+    window_s: float = 10.0
+    gate_deg: float = 3.0
+    no_ais_dwell_s: float = 5.0
+    ais_latency_s: float = 2.0
+
+
+@dataclass(frozen=True)
+class OutputSettings:
+    video: bool = True
+    video_codec: str = "mp4v"
+    mot_csv: bool = True
+    jsonl: bool = True
+    draw_horizon: bool = True
+
+
+@dataclass(frozen=True)
+class Config:
+    run: RunSettings = field(default_factory=RunSettings)
+    detector: DetectorSettings = field(default_factory=DetectorSettings)
+    tracker: TrackerSettings = field(default_factory=TrackerSettings)
+    fusion: FusionSettings = field(default_factory=FusionSettings)
+    output: OutputSettings = field(default_factory=OutputSettings)
+
+
+def _type_name(tp: Any) -> str:
+    return getattr(tp, "__name__", str(tp))
+
+
+def _coerce(value: Any, tp: Any, where: str) -> Any:
+    """Check (and gently coerce int -> float) a value against a field type."""
+    if tp is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if tp is bool:
+        if isinstance(value, bool):
+            return value
+    elif tp in (int, float, str):
+        if isinstance(value, tp) and not isinstance(value, bool):
+            return value
+    else:
+        return value
+    raise ConfigError(f"{where}: expected {_type_name(tp)}, got {type(value).__name__} {value!r}")
+
+
+def _build(cls: type, data: dict, where: str) -> Any:
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for key, value in data.items():
+        if key not in fields:
+            near = difflib.get_close_matches(key, list(fields), n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise ConfigError(f"{where}: unknown key '{key}'{hint}")
+        tp = hints[key]
+        if dataclasses.is_dataclass(tp):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{where}: '{key}' must be a table [{key}]")
+            kwargs[key] = _build(tp, value, f"{where} [{key}]")
+        else:
+            kwargs[key] = _coerce(value, tp, f"{where} [{cls.__name__}] key '{key}'")
+    return cls(**kwargs)
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] | None = None) -> Config:
+    """Read a TOML file (or the defaults when ``path`` is None) and apply ``key=value`` overrides.
+
+    Raises
+    ------
+    ConfigError
+        On a missing or unparsable file, an unknown key or a value of the wrong type.
+    """
+    data: dict = {}
+    where = "defaults"
+    if path is not None:
+        p = Path(path)
+        where = str(p)
+        if not p.is_file():
+            raise ConfigError(f"configuration file not found: {p}")
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    cfg = _build(Config, data, where)
+    if overrides:
+        cfg = apply_overrides(cfg, overrides)
+    return cfg
+
+
+def _parse_value(text: str) -> Any:
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text  # bare string
+
+
+def apply_overrides(cfg: Config, overrides: list[str]) -> Config:
+    """Apply ``section.key=value`` overrides (values in TOML syntax; bare words are strings)."""
+    data = config_to_dict(cfg)
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(f"command line: override '{item}' is not of the form section.key=value")
+        key, text = item.split("=", 1)
+        parts = key.strip().split(".")
+        if len(parts) != 2:
+            raise ConfigError(f"command line: override key '{key}' must be section.key")
+        section, name = parts
+        if section not in data:
+            near = difflib.get_close_matches(section, list(data), n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise ConfigError(f"command line: unknown section '{section}'{hint}")
+        data[section][name] = _parse_value(text.strip())
+    return _build(Config, data, "command line")
+
+
+def config_to_dict(cfg: Any) -> dict:
+    """The configuration as nested plain dicts (TOML-serialisable)."""
+    return dataclasses.asdict(cfg)
