@@ -52,6 +52,19 @@ class DetectorSettings:
     detection_width_px: int = 0  # 0: automatic
     horizon_filter: bool = True
     reflection_filter: bool = True
+    # robust Kalman background model (paper C); see docs/paper_c.md
+    rk_k_sigma: float = 3.0  # foreground beyond k sqrt(P_pred + r)
+    rk_window_s: float = 2.0  # memory of the EM statistics (paper: N = 50 frames)
+    rk_alpha: float = 1.0  # Gamma prior of Ting's observation weights
+    rk_beta: float = 1.0
+    rk_hard_gate: bool = False  # freeze the background of foreground pixels
+    rk_q0: float = 1.0  # initial process variance (grey levels^2)
+    rk_r0: float = 16.0  # initial observation variance (grey levels^2)
+    rk_warmup_s: float = 0.4
+    rk_work_width_px: int = 960  # the model runs no wider than this (0: native size)
+    rk_colour: bool = False  # one model per BGR channel instead of grey
+    rk_open_px: int = 0
+    rk_close_px: int = 3
 
 
 @dataclass(frozen=True)
