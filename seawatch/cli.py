@@ -28,12 +28,87 @@ def _formatter(prog):
 
 
 # -------------------------------------------------------------------------- run
+def _add_config_args(p) -> None:  # owner: pipeline
+    p.add_argument("--config", type=Path, metavar="FILE", help="settings file (TOML); see docs/pipeline.md")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override one setting, e.g. --set detector.kind=mog2 (repeatable)")
+
+
 def _add_run(sub) -> None:  # owner: pipeline
-    sub.add_parser("run", help="run the pipeline on a video file, image folder or stream", formatter_class=_formatter)
+    p = sub.add_parser(
+        "run",
+        help="run the pipeline on a video file, image folder or stream",
+        description=(
+            "Detect and track vessels in SOURCE (a video file, a folder of images read in sorted "
+            "file-name order, or an rtsp:// / http:// stream URL) and write to --out: annotated.mp4, "
+            "detections.csv and tracks.csv (MOTChallenge), detections.jsonl and tracks.jsonl, and "
+            "summary.json. Unreadable frames are counted and skipped; the exit status is non-zero "
+            "only when nothing could be processed."
+        ),
+        epilog=(
+            "examples:\n"
+            "  seawatch run harbour.mp4 --out out/harbour\n"
+            "  seawatch run frames/ --set run.fps=1 --set tracker.max_coast_s=5\n"
+            "  seawatch run rtsp://cam1/stream --camera cam1.toml --ptz cam1_ptz.csv --ais udp://0.0.0.0:10110"
+        ),
+        formatter_class=_formatter,
+    )
+    p.add_argument("source", metavar="SOURCE", help="video file, image folder or stream URL")
+    _add_config_args(p)
+    p.add_argument("--camera", type=Path, metavar="FILE",
+                   help="camera pose and intrinsics (TOML, or FVessel camera_para.txt)")
+    p.add_argument("--ptz", type=Path, metavar="FILE",
+                   help="timestamped pan/tilt/zoom states, CSV with header t_s,pan_deg,tilt_deg,zoom")
+    p.add_argument("--ais", metavar="FILE|udp://HOST:PORT|tcp://HOST:PORT",
+                   help="AIS input (NMEA or CSV file, or a live UDP/TCP NMEA feed) for fusion")
+    p.add_argument("--out", type=Path, metavar="DIR", help="output folder (default: out/<source name>)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+def _load_settings(args):  # owner: pipeline
+    from seawatch.config import load_config
+
+    return load_config(args.config, args.overrides)
+
+
+def _print_run_summary(summary: dict, out_dir) -> None:  # owner: pipeline
+    fps = summary.get("processing_fps")
+    print(
+        f"{summary['frames_processed']} frames processed"
+        + (f" at {fps:.1f} frames/s" if fps else "")
+        + f", {summary['bad_frames']} bad frames skipped, {summary['detections']} detections, "
+        f"{summary['tracks']} tracks" + (f", {summary['alerts']} alerts" if summary.get("alerts") else "")
+    )
+    for note in summary.get("notes", [])[:10]:
+        print(f"  note: {note}")
+    for ex in summary.get("bad_frame_examples", [])[:5]:
+        print(f"  skipped {ex}")
+    print(f"outputs in {out_dir}/")
 
 
 def _cmd_run(args) -> int:  # owner: pipeline
-    raise CLIError("not available yet")
+    from seawatch.io.video import SourceError, is_stream_url
+    from seawatch.pipeline import PipelineError, run_pipeline
+
+    cfg = _load_settings(args)
+    if args.quiet:
+        from seawatch.config import apply_overrides
+
+        cfg = apply_overrides(cfg, ["run.progress=false"])
+    if args.out is not None:
+        out = args.out
+    else:
+        name = "stream" if is_stream_url(args.source) else (Path(args.source).stem or "run")
+        out = Path("out") / name
+    try:
+        summary = run_pipeline(args.source, cfg, out_dir=out, camera=args.camera, ptz=args.ptz, ais=args.ais)
+    except (SourceError, PipelineError) as exc:
+        raise CLIError(str(exc)) from None
+    if not args.quiet:
+        _print_run_summary(summary, out)
+    if summary["frames_processed"] == 0:
+        raise CLIError(f"{args.source}: no frame could be processed (see {out}/summary.json)")
+    return EXIT_OK
 
 
 # ------------------------------------------------------------------------- demo
