@@ -110,9 +110,18 @@ def _resolve(kind: str, registry: dict[str, str], what: str):
 
 
 def _construct(cls, config: Config, fps: float, camera):
-    if hasattr(cls, "from_config"):
-        return cls.from_config(config, fps=fps, camera=camera)
-    return cls()
+    """``cls.from_config(config, fps=..., camera=...)`` (passing only the keywords it accepts),
+    else ``cls()``."""
+    if not hasattr(cls, "from_config"):
+        return cls()
+    kwargs = {"fps": fps, "camera": camera}
+    try:
+        params = inspect.signature(cls.from_config).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
+        return cls.from_config(config, **kwargs)
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        kwargs = {k: v for k, v in kwargs.items() if k in params}
+    return cls.from_config(config, **kwargs)
 
 
 def build_detector(config: Config, fps: float, camera=None):

@@ -44,19 +44,28 @@ class Sink(Protocol):
     def close(self) -> None: ...
 
 
+def _names(tracks: Tracks) -> list[str | None]:
+    """The vessel names a fuser attached (``tracks.names``), or Nones."""
+    names = getattr(tracks, "names", None)
+    if names is None or len(names) != len(tracks):
+        return [None] * len(tracks)
+    return [str(n) if n else None for n in names]
+
+
+def _select(tracks: Tracks, keep: np.ndarray) -> Tracks:
+    """``tracks.subset(keep)`` that keeps the fuser's ``names`` attribute."""
+    names = _names(tracks)
+    out = tracks.subset(keep)
+    out.names = [n for n, k in zip(names, keep) if k]
+    return out
+
+
 def _reported(tracks: Tracks, include_coasting: bool) -> Tracks:
     """The tracks a writer reports: confirmed ones updated in this frame (and coasting ones)."""
     keep = tracks.states == int(TrackState.CONFIRMED)
     if include_coasting:
         keep |= tracks.states == int(TrackState.COASTING)
-    return tracks.subset(keep)
-
-
-def _names(tracks: Tracks) -> list[str | None]:
-    names = getattr(tracks, "names", None)
-    if names is None or len(names) != len(tracks):
-        return [None] * len(tracks)
-    return [str(n) if n else None for n in names]
+    return _select(tracks, keep)
 
 
 class MotCsvWriter:
@@ -250,7 +259,7 @@ def draw_annotations(image: np.ndarray, detections: Detections | None, tracks: T
         for b in detections.boxes.astype(int):
             cv2.rectangle(out, (b[0], b[1]), (b[0] + b[2], b[1] + b[3]), (160, 160, 160), 1)
     if tracks is not None and len(tracks):
-        t = tracks.subset(tracks.states != int(TrackState.TENTATIVE))
+        t = _select(tracks, tracks.states != int(TrackState.TENTATIVE))
         names = _names(t)
         for k in range(len(t)):
             x, y, bw, bh = (int(round(v)) for v in t.boxes[k])

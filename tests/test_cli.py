@@ -1,0 +1,149 @@
+"""The ``seawatch`` command line: help everywhere, ``run`` end to end, bad inputs -> clear errors."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from _pipeline_synth import moving_boxes, write_folder, write_video
+from seawatch.cli import COMMANDS, EXIT_FAIL, EXIT_OK, main
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory):
+    frames, _ = moving_boxes(40, width=160, height=120, seed=21,
+                             objects=[(1, -40.0, 40.0, 30, 12, 40.0, 0.0, 230)])
+    return write_video(tmp_path_factory.mktemp("v") / "clip.avi", frames, 10.0)
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_on_every_subcommand(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: seawatch " + command)
+
+
+def test_top_level_help_lists_commands(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for c in ("run", "demo", "sim"):
+        assert c in out
+
+
+def test_run_help_documents_the_options(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = capsys.readouterr().out
+    for opt in ("--config", "--set", "--camera", "--ptz", "--ais", "--out", "SOURCE"):
+        assert opt in out
+
+
+def test_run_writes_outputs_and_prints_a_summary(tmp_path, video, capsys):
+    out = tmp_path / "out"
+    rc = main(["run", str(video), "--out", str(out), "--quiet"])
+    assert rc == EXIT_OK
+    assert capsys.readouterr().out == ""  # --quiet
+    rc = main(["run", str(video), "--out", str(out), "--set", "run.progress=false"])
+    assert rc == EXIT_OK
+    text = capsys.readouterr().out
+    assert "40 frames processed" in text and str(out) in text
+    s = json.loads((out / "summary.json").read_text())
+    assert s["frames_processed"] == 40 and s["detector"] == "mog2"
+    assert (out / "tracks.csv").is_file() and (out / "annotated.mp4").is_file()
+
+
+def test_run_with_config_file_and_override(tmp_path, video):
+    cfg = tmp_path / "s.toml"
+    cfg.write_text("[run]\nprogress = false\nmax_frames = 12\n[output]\nvideo = false\n")
+    out = tmp_path / "out"
+    assert main(["run", str(video), "--config", str(cfg), "--set", "tracker.max_coast_s=1", "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["frames_processed"] == 12 and s["config"]["tracker"]["max_coast_s"] == 1.0
+    assert not (out / "annotated.mp4").exists()
+
+
+def _err(capsys):
+    return capsys.readouterr().err
+
+
+def test_missing_video_fails_naming_it(tmp_path, capsys):
+    rc = main(["run", str(tmp_path / "nothing.mp4"), "--out", str(tmp_path / "o")])
+    assert rc == EXIT_FAIL
+    err = _err(capsys)
+    assert "seawatch run: error:" in err and "nothing.mp4" in err and "Traceback" not in err
+
+
+def test_unreadable_video_fails_naming_it(tmp_path, capsys):
+    bad = tmp_path / "broken.mp4"
+    bad.write_bytes(np.random.default_rng(0).integers(0, 256, 5000, dtype=np.uint8).tobytes())
+    assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == EXIT_FAIL
+    assert "broken.mp4" in _err(capsys)
+
+
+def test_folder_of_only_corrupt_images_fails(tmp_path, capsys):
+    folder = tmp_path / "imgs"
+    folder.mkdir()
+    for i in range(3):
+        (folder / f"{i}.jpg").write_bytes(b"\xff\xd8 truncated")
+    rc = main(["run", str(folder), "--out", str(tmp_path / "o"), "--quiet"])
+    assert rc == EXIT_FAIL
+    err = _err(capsys)
+    assert "no frame could be processed" in err and str(folder) in err
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["bad_frames"] == 3
+
+
+def test_folder_with_some_corrupt_images_succeeds(tmp_path, capsys):
+    frames, _ = moving_boxes(12, width=80, height=60, seed=1, objects=[(1, 0.0, 10.0, 10, 6, 20.0, 0.0, 230)])
+    folder = write_folder(tmp_path / "imgs", frames)
+    (folder / "frame_0004.png").write_bytes(b"junk")
+    rc = main(["run", str(folder), "--out", str(tmp_path / "o"), "--set", "run.progress=false"])
+    assert rc == EXIT_OK
+    out = capsys.readouterr().out
+    assert "1 bad frames skipped" in out and "frame_0004.png" in out
+
+
+def test_truncated_video_runs_to_its_end(tmp_path, video, capsys):
+    cut = tmp_path / "cut.avi"
+    data = video.read_bytes()
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    rc = main(["run", str(cut), "--out", str(tmp_path / "o"), "--set", "run.progress=false"])
+    assert rc == EXIT_OK
+    assert "truncated" in capsys.readouterr().out
+
+
+def test_missing_camera_file_fails_naming_it(tmp_path, video, capsys):
+    rc = main(["run", str(video), "--camera", str(tmp_path / "cam.toml"), "--out", str(tmp_path / "o")])
+    assert rc == EXIT_FAIL
+    assert "camera file not found" in (err := _err(capsys)) and "cam.toml" in err
+
+
+def test_bad_ptz_file_fails_naming_it(tmp_path, video, capsys):
+    p = tmp_path / "ptz.csv"
+    p.write_text("nothing useful\n")
+    assert main(["run", str(video), "--ptz", str(p), "--out", str(tmp_path / "o")]) == EXIT_FAIL
+    assert "ptz.csv" in _err(capsys)
+
+
+def test_invalid_configuration_fails_naming_key_and_file(tmp_path, video, capsys):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[detector]\nmog2_histroy_s = 10\n")
+    assert main(["run", str(video), "--config", str(cfg), "--out", str(tmp_path / "o")]) == EXIT_FAIL
+    err = _err(capsys)
+    assert "bad.toml" in err and "mog2_histroy_s" in err and "mog2_history_s" in err
+    assert main(["run", str(video), "--set", "tracker.iou_gat=0.3"]) == EXIT_FAIL
+    assert "iou_gat" in _err(capsys)
+    assert main(["run", str(video), "--set", "detector.kind=nonesuch", "--out", str(tmp_path / "o")]) == EXIT_FAIL
+    assert "nonesuch" in _err(capsys)
+
+
+def test_console_entry_point_exit_status(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "seawatch", "run", str(tmp_path / "x.mp4")],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == EXIT_FAIL and "x.mp4" in r.stderr
