@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import re
 import sys
 import time
 import traceback
@@ -44,6 +45,8 @@ __all__ = [
     "build_detector",
     "build_tracker",
     "build_fuser",
+    "open_ais",
+    "AISInput",
     "make_sinks",
     "run_pipeline",
     "PipelineError",
@@ -134,10 +137,63 @@ def build_tracker(config: Config, fps: float, camera=None):
     return _construct(_resolve(config.tracker.kind, TRACKERS, "tracker"), config, fps, camera)
 
 
+@dataclass
+class AISInput:
+    """AIS for a run: every report of a file (time-sorted), or a live listener (``poll()``)."""
+
+    name: str
+    reports: list | None = None
+    listener: Any = None
+    stats: Any = None  # seawatch.io.ais.AISStats
+
+    @property
+    def data(self):
+        """What the fuser gets: the report list, or the listener."""
+        return self.listener if self.listener is not None else self.reports
+
+    def close(self) -> None:
+        if self.listener is not None:
+            self.listener.close()
+
+
+def open_ais(ais) -> AISInput | None:
+    """Read (file or folder) or start listening to (``udp://``/``tcp://``) an AIS source with
+    :mod:`seawatch.io.ais`; a list of :class:`~seawatch.types.AISReport` is taken as is.
+
+    Raises
+    ------
+    SourceError
+        Missing or unreadable file, malformed URL, port that cannot be bound.
+    """
+    from seawatch.io.video import SourceError
+
+    if ais is None:
+        return None
+    if isinstance(ais, (list, tuple)):
+        return AISInput("reports", reports=sorted(ais, key=lambda r: r.t_s))
+    from seawatch.io import ais as aisio
+
+    name = str(ais)
+    if re.match(r"^(udp|tcp)://", name, re.IGNORECASE):
+        try:
+            return AISInput(name, listener=aisio.AISListener(name))
+        except (ValueError, OSError) as exc:
+            raise SourceError(f"AIS stream {name}: {exc}") from None
+    try:
+        reports, stats = aisio.read_ais(name)
+    except FileNotFoundError:
+        raise SourceError(f"AIS file not found: {name}") from None
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise SourceError(f"AIS file {name}: {exc}") from None
+    return AISInput(name, reports=reports, stats=stats)
+
+
 def build_fuser(config: Config, ais: Any, camera=None, fps: float = 25.0, notes: list | None = None):
-    """The fuser for an AIS source (a file path, ``udp://``/``tcp://`` URL, or a list of
-    :class:`~seawatch.types.AISReport`), or None when there is no AIS, fusion is disabled, or
+    """The fuser for an AIS input (the report list of a file, or a live
+    :class:`seawatch.io.ais.AISListener`), or None when there is no AIS, fusion is disabled, or
     ``seawatch.fuse`` does not provide ``build_fuser`` yet (a note says so)."""
+    if isinstance(ais, AISInput):
+        ais = ais.data
     if ais is None or not config.fusion.enabled:
         return None
     try:
@@ -146,7 +202,7 @@ def build_fuser(config: Config, ais: Any, camera=None, fps: float = 25.0, notes:
         fuse, err = None, exc
     factory = getattr(fuse, "build_fuser", None) if fuse is not None else None
     if factory is None:
-        msg = f"AIS {ais if isinstance(ais, (str, Path)) else 'reports'} given but fusion is not available yet; AIS ignored"
+        msg = "AIS given but fusion (seawatch.fuse.build_fuser) is not available yet; AIS ignored"
         if notes is not None:
             notes.append(msg)
         print(f"seawatch: warning: {msg}", file=sys.stderr)
@@ -354,7 +410,6 @@ def run_pipeline(
     SourceError, ConfigError, PipelineError
         When nothing can be done (the message names the input).
     """
-    from seawatch.io.results import write_summary
     from seawatch.io.video import FrameSource, load_camera_file, open_source, read_ptz_csv
 
     config = config or Config()
@@ -371,6 +426,16 @@ def run_pipeline(
             pose=camera.pose if camera is not None else None, ptz=ptz, max_frames=r.max_frames,
             max_bad_in_row=r.max_bad_frames_in_row,
         )
+    try:
+        return _run_opened(src, config, out_dir, camera, ptz, ais, progress, total, on_step)
+    finally:
+        src.close()
+
+
+def _run_opened(src, config, out_dir, camera, ptz, ais, progress, total, on_step) -> dict[str, Any]:
+    from seawatch.io.results import write_summary
+
+    r = config.run
     camera = _fit_camera(camera, src.width, src.height)
     notes: list[str] = []
     if config.detector.kind in JOINT:  # one stage detects and tracks; tracker.kind is not used
@@ -380,7 +445,8 @@ def run_pipeline(
     else:
         detector = build_detector(config, src.fps, camera)
         tracker = build_tracker(config, src.fps, camera)
-    fuser = build_fuser(config, ais, camera, src.fps, notes)
+    ais_in = open_ais(ais)
+    fuser = build_fuser(config, ais_in, camera, src.fps, notes)
     sinks, paths = make_sinks(out_dir, config, src.fps, with_alerts=fuser is not None)
     pipe = Pipeline(detector, tracker, fuser=fuser, sinks=sinks, camera=camera, catch_errors=src.is_live)
     if total is None and getattr(src, "declared_frames", 0):
@@ -390,7 +456,11 @@ def run_pipeline(
     if total and r.max_frames:
         total = min(total, r.max_frames)
     started = time.time()
-    proc = pipe.run(src, progress=r.progress if progress is None else progress, total=total, on_step=on_step)
+    try:
+        proc = pipe.run(src, progress=r.progress if progress is None else progress, total=total, on_step=on_step)
+    finally:
+        if ais_in is not None:
+            ais_in.close()
     summary: dict[str, Any] = {
         "source": src.name,
         "started_unix_s": round(started, 3),
@@ -415,11 +485,18 @@ def run_pipeline(
     if ptz is not None:
         summary["rejected_inputs"]["ptz_rows"] = len(ptz.rejected)
         summary["notes"] += ptz.rejected[:20]
+    if ais_in is not None:
+        st = ais_in.stats if ais_in.listener is None else ais_in.listener.stats
+        summary["ais"] = {"source": ais_in.name, **(st.as_dict() if st is not None else
+                                                    {"reports": len(ais_in.reports or [])})}
+        if st is not None:
+            summary["rejected_inputs"]["ais"] = st.n_rejected
+            summary["notes"] += st.messages_log[:20]
+        if ais_in.listener is not None and ais_in.listener.errors:
+            summary["notes"] += [f"AIS {ais_in.name}: {e}" for e in ais_in.listener.errors[:10]]
     if fuser is not None and hasattr(fuser, "stats"):
         st = fuser.stats() if callable(fuser.stats) else fuser.stats
         summary["fusion"] = st.as_dict() if hasattr(st, "as_dict") else st
-        if isinstance(summary["fusion"], dict) and "rejected" in summary["fusion"]:
-            summary["rejected_inputs"]["ais"] = summary["fusion"]["rejected"]
     out = Path(out_dir)
     summary["outputs"]["summary"] = str(out / "summary.json")
     write_summary(out / "summary.json", summary)

@@ -147,3 +147,9 @@ def test_console_entry_point_exit_status(tmp_path):
     r = subprocess.run([sys.executable, "-m", "seawatch", "run", str(tmp_path / "x.mp4")],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == EXIT_FAIL and "x.mp4" in r.stderr
+
+
+def test_missing_ais_file_fails_naming_it(tmp_path, video, capsys):
+    rc = main(["run", str(video), "--ais", str(tmp_path / "feed.nmea"), "--out", str(tmp_path / "o")])
+    assert rc == EXIT_FAIL
+    assert "AIS file not found" in (err := _err(capsys)) and "feed.nmea" in err

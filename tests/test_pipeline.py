@@ -290,3 +290,62 @@ def test_missing_source_and_camera_raise_naming_the_input(tmp_path, scene):
     v = write_video(tmp_path / "v.avi", frames[:5], FPS)
     with pytest.raises(SourceError, match="camera file not found: .*nocam.toml"):
         run_pipeline(v, _cfg(), out_dir=tmp_path / "o", camera=tmp_path / "nocam.toml")
+
+
+def _nmea_file(path, n=3, t0=1000.0):
+    from pyais.encode import encode_dict
+
+    s = encode_dict({"type": 1, "mmsi": 235070762, "lat": 50.8, "lon": -1.1, "speed": 5.0, "course": 90.0,
+                     "heading": 90}, talker_id="AI")[0]
+    path.write_text("".join(f"{t0 + i:.1f} {s}\n" for i in range(n)) + "!AIVDM,garbage*00\n")
+    return path
+
+
+def test_ais_file_is_read_and_handed_to_the_fuser(tmp_path, scene, monkeypatch):
+    import seawatch.fuse
+
+    got = {}
+
+    class Fuser:
+        name = "test-fuser"
+
+        def update(self, tracks, frame, t_s):
+            return tracks, [{"kind": "test"}] if frame.index == 25 else []
+
+    def build(config, *, ais, camera, fps):
+        got.update(ais=ais, fps=fps, camera=camera)
+        return Fuser()
+
+    monkeypatch.setattr(seawatch.fuse, "build_fuser", build, raising=False)
+    frames, _ = scene
+    video = write_video(tmp_path / "v.avi", frames[:30], FPS)
+    out = tmp_path / "out"
+    s = run_pipeline(video, _cfg(), out_dir=out, ais=_nmea_file(tmp_path / "ais.nmea"))
+    assert [r.t_s for r in got["ais"]] == [1000.0, 1001.0, 1002.0] and got["ais"][0].mmsi == 235070762
+    assert got["fps"] == FPS
+    assert s["fuser"] == "test-fuser" and s["alerts"] == 1
+    assert s["ais"]["reports"] == 3 and s["rejected_inputs"]["ais"] == 1
+    assert any("ais.nmea" in n for n in s["notes"])  # the rejected sentence, naming file and line
+    assert read_jsonl(out / "alerts.jsonl") == [{"frame": 25, "t_s": 2.5, "alert": {"kind": "test"}}]
+
+
+def test_ais_without_fusion_module_is_noted_not_fatal(tmp_path, scene, monkeypatch):
+    import seawatch.fuse
+
+    monkeypatch.delattr(seawatch.fuse, "build_fuser", raising=False)
+    frames, _ = scene
+    video = write_video(tmp_path / "v.avi", frames[:10], FPS)
+    s = run_pipeline(video, _cfg(), out_dir=tmp_path / "o", ais=_nmea_file(tmp_path / "a.nmea"))
+    assert s["fuser"] is None and s["ais"]["reports"] == 3
+    assert any("fusion" in n and "not available" in n for n in s["notes"])
+
+
+def test_missing_ais_file_and_bad_url_raise_naming_them(tmp_path, scene):
+    from seawatch.io.video import SourceError
+
+    frames, _ = scene
+    video = write_video(tmp_path / "v.avi", frames[:5], FPS)
+    with pytest.raises(SourceError, match="AIS file not found: .*none.nmea"):
+        run_pipeline(video, _cfg(), out_dir=tmp_path / "o", ais=tmp_path / "none.nmea")
+    with pytest.raises(SourceError, match="udp://nohost"):
+        run_pipeline(video, _cfg(), out_dir=tmp_path / "o", ais="udp://nohost")
