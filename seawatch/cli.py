@@ -131,11 +131,88 @@ def _cmd_sim(args) -> int:  # owner: simulator
 
 # ------------------------------------------------------------------------- eval
 def _add_eval(sub) -> None:  # owner: evaluation
-    sub.add_parser("eval", help="score predictions against ground truth and write a report", formatter_class=_formatter)
+    p = sub.add_parser(
+        "eval",
+        help="score predictions against ground truth and write a report",
+        description=(
+            "Score detections or tracks against ground truth: detection (TPR, FAR, F1, by box size, "
+            "precision-recall), CLEAR MOT (MOTChallenge and VACE), HOTA, IDF1, METE/MELT, and "
+            "OSPA/GOSPA when both files carry world positions. Prints the headline table; with "
+            "--out writes report.md, report.json and plots. Formats: mot (MOTChallenge CSV), mardct "
+            "(folder of 'boat x y w h' files), fvessel, coral (labels.csv), argos (XML), jsonl "
+            "(seawatch JSON Lines); 'auto' guesses from the name."
+        ),
+        formatter_class=_formatter,
+    )
+    p.add_argument("--gt", required=True, type=Path, help="ground-truth file or folder")
+    p.add_argument("--pred", required=True, type=Path, help="predictions (detections or tracks)")
+    fmts = ["auto", "mot", "mardct", "fvessel", "coral", "argos", "jsonl"]
+    p.add_argument("--format", default="auto", choices=fmts, help="ground-truth format (default: auto)")
+    p.add_argument("--pred-format", default="auto", choices=fmts, help="prediction format (default: auto)")
+    p.add_argument("--iou", type=float, default=0.5, help="IoU threshold of a match (default 0.5; 0.3 for small targets)")
+    p.add_argument("--frame-offset", type=int, default=0,
+                   help="subtracted from ground-truth frame numbers (MarDCT video2: 1300)")
+    p.add_argument("--frames", choices=["auto", "gt", "union"], default="auto",
+                   help="frames scored: gt = annotated frames only, union = frames of either file "
+                        "(auto: gt for sparsely annotated mardct/coral/argos, else union)")
+    p.add_argument("--images", type=Path, help="CORAL image folder (unlabelled images count as frames)")
+    p.add_argument("--camera-id", help="keep only this camera's rows of JSON Lines input")
+    p.add_argument("--ospa-cutoff-m", type=float, default=50.0, help="OSPA/GOSPA cut-off in metres (default 50)")
+    p.add_argument("--ospa-p", type=float, default=1.0, help="OSPA/GOSPA order (default 1)")
+    p.add_argument("--out", type=Path, help="write report.md, report.json and plots here")
+    p.add_argument("--no-plots", action="store_true", help="skip the plots")
 
 
 def _cmd_eval(args) -> int:  # owner: evaluation
-    raise CLIError("not available yet")
+    from seawatch.eval.report import evaluate, format_summary, write_report
+    from seawatch.io.gt import _guess_format, read_annotations
+
+    if not 0.0 < args.iou <= 1.0:
+        raise CLIError(f"--iou must be in (0, 1], got {args.iou}")
+
+    def load(path, fmt, role):
+        if not path.exists():
+            raise CLIError(f"--{role} {path}: not found")
+        fmt = _guess_format(path) if fmt == "auto" else fmt
+        kw = {}
+        if fmt in ("mardct", "argos") and role == "gt":
+            kw["frame_offset"] = args.frame_offset
+        if fmt == "mot" and role == "gt":
+            kw["ignore_zero_conf"] = True
+        if fmt == "coral" and args.images is not None:
+            kw["image_dir"] = args.images
+        if fmt == "jsonl" and args.camera_id:
+            kw["camera_id"] = args.camera_id
+        try:
+            ann = read_annotations(path, fmt, **kw)
+        except (ValueError, OSError) as exc:
+            raise CLIError(f"--{role} {path}: {exc}") from exc
+        if ann.errors:
+            print(f"seawatch eval: {len(ann.errors)} malformed row(s) skipped in {path}:", file=sys.stderr)
+            for e in ann.errors[:5]:
+                print(f"  {e}", file=sys.stderr)
+            if len(ann.errors) > 5:
+                print(f"  ... and {len(ann.errors) - 5} more", file=sys.stderr)
+        return ann, fmt
+
+    gt, gt_fmt = load(args.gt, args.format, "gt")
+    pred, pred_fmt = load(args.pred, args.pred_format, "pred")
+    mode = args.frames
+    if mode == "auto":
+        mode = "gt" if gt_fmt in ("mardct", "coral", "argos") else "union"
+    frames = gt.frames if mode == "gt" else None
+    try:
+        res = evaluate(gt, pred, iou=args.iou, frames=frames, ospa_cutoff_m=args.ospa_cutoff_m, ospa_p=args.ospa_p)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from exc
+    print(format_summary(res, title=f"seawatch eval: {args.pred} against {args.gt}"))
+    if args.out is not None:
+        meta = {"ground truth": f"{args.gt} ({gt_fmt}, {len(gt)} rows, {len(gt.errors)} malformed)",
+                "predictions": f"{args.pred} ({pred_fmt}, {len(pred)} rows, {len(pred.errors)} malformed)",
+                "frames": mode, "command": "seawatch " + " ".join(sys.argv[1:])}
+        paths = write_report(res, args.out, meta=meta, plots=not args.no_plots)
+        print(f"report: {paths[0]} ({len(paths)} files in {args.out})")
+    return EXIT_OK
 
 
 # ---------------------------------------------------------------- train-cascade
