@@ -76,6 +76,12 @@ class TrackerSettings:
     iou_gate: float = 0.1
     num_particles: int = 500
     seed: int = 0
+    # ptracking (see docs/ptracking.md)
+    delta_px: float = 20.0  # KClusterize radius at 704 px wide, scaled with the image width
+    group_shrink: float = 0.8  # boxes shrunk to this that overlap form a group
+    colour_max_dist: float = 0.35  # HSV Bhattacharyya distance of a colour match
+    reid_memory_s: float = 10.0  # how long a lost track can be re-identified
+    ego_motion: str = "none"  # none | flow | ptz (moving cameras)
 
 
 @dataclass(frozen=True)
@@ -85,6 +91,27 @@ class FusionSettings:
     gate_deg: float = 3.0
     no_ais_dwell_s: float = 5.0
     ais_latency_s: float = 2.0
+    # see docs/fusion.md
+    ais_time_offset_s: float = 0.0  # AIS clock minus frame clock (e.g. Unix time of video second 0)
+    ais_max_age_s: float = 360.0  # AIS targets whose latest report is older are dropped
+    max_range_m: float = 20000.0  # AIS/VTS targets farther from the camera are not associated
+    sigma_az_deg: float = 0.5
+    sigma_el_deg: float = 0.3
+    sigma_rate_dps: float = 0.05
+    pos_sigma_m: float = 10.0
+    gate_sigma: float = 3.0
+    min_support_s: float = 2.0
+    min_llr: float = 1.0
+    switch_margin: float = 1.0
+    self_calibrate: bool = True
+    calib_min_samples: int = 10
+    calib_max_offset_deg: float = 5.0
+    theta0_deg: float = 15.0
+    ais_unseen_dwell_s: float = 10.0
+    min_visible_px: float = 8.0
+    max_visible_range_m: float = 8000.0
+    spoof_dwell_s: float = 5.0
+    alerts: bool = True
 
 
 @dataclass(frozen=True)

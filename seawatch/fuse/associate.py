@@ -1,0 +1,325 @@
+"""Geometric camera <-> AIS/VTS association over a time window.
+
+Each camera track is described by angles measured in the image (through the camera model):
+the azimuth of its box's bottom centre and the box's angular half-width, the elevation of its
+waterline, and its azimuth and elevation rates.  Each AIS/VTS target, dead-reckoned to the frame
+time, is described by the same angles computed from its ENU position and velocity.  Their
+normalised squared distance ``d2`` per pair (:func:`pair_distance2`) gives a per-frame
+log-likelihood ratio that :class:`WindowAssociator` averages over a sliding time window
+(exponential forgetting) before a one-to-one assignment with gating and hysteresis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from seawatch.fuse.table import TargetStates
+
+__all__ = ["TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
+           "angle_diff_deg", "WindowAssociator"]
+
+
+def angle_diff_deg(a, b) -> np.ndarray:
+    """Signed smallest difference ``a - b`` of angles in degrees, in [-180, 180)."""
+    return (np.asarray(a, float) - np.asarray(b, float) + 180.0) % 360.0 - 180.0
+
+
+@dataclass
+class TrackAngles:
+    """Angles of camera tracks (all (N,) arrays, degrees or deg/s)."""
+
+    az_deg: np.ndarray
+    el_deg: np.ndarray
+    half_width_deg: np.ndarray
+    az_rate_dps: np.ndarray
+    el_rate_dps: np.ndarray
+    range_m: np.ndarray  # from the waterline, NaN above the horizon
+    e_m: np.ndarray
+    n_m: np.ndarray
+
+
+@dataclass
+class TargetAngles:
+    """Angles of AIS/VTS targets seen from the camera (all (M,) arrays)."""
+
+    az_deg: np.ndarray
+    el_deg: np.ndarray
+    range_m: np.ndarray
+    az_rate_dps: np.ndarray
+    el_rate_dps: np.ndarray
+    del_dr: np.ndarray  # d(elevation)/d(range), deg per metre
+
+
+def track_angles(camera, boxes: np.ndarray, velocities_px_s: np.ndarray | None = None,
+                 pan_offset_deg: float = 0.0, tilt_offset_deg: float = 0.0) -> TrackAngles:
+    """Angles of camera tracks from their boxes through a camera model.
+
+    Parameters
+    ----------
+    camera : seawatch.camera.CameraModel (at the frame's pose / PTZ state).
+    boxes : (N, 4) x, y, w, h pixels.
+    velocities_px_s : (N, 2) box-centre velocity, px/s (zeros when None).
+    pan_offset_deg, tilt_offset_deg : float
+        Calibration offsets added to the measured azimuth and elevation (true minus nominal).
+    """
+    b = np.asarray(boxes, float).reshape(-1, 4)
+    n = len(b)
+    vel = np.zeros((n, 2)) if velocities_px_s is None else np.asarray(velocities_px_s, float).reshape(-1, 2)
+    u = b[:, 0] + b[:, 2] / 2
+    v = b[:, 1] + b[:, 3]
+    uu = np.concatenate([u, b[:, 0], b[:, 0] + b[:, 2], u + vel[:, 0]])
+    vv = np.concatenate([v, v, v, v + vel[:, 1]])
+    az, el = camera.pixel_to_azel(uu, vv)
+    az0, el0 = az[:n], el[:n]
+    half = 0.5 * np.abs(angle_diff_deg(az[2 * n:3 * n], az[n:2 * n]))
+    az_rate = angle_diff_deg(az[3 * n:], az0)
+    el_rate = el[3 * n:] - el0
+    tc = camera if (pan_offset_deg == 0 and tilt_offset_deg == 0) else camera.with_pose(
+        pan_deg=camera.pose.pan_deg + pan_offset_deg, tilt_deg=camera.pose.tilt_deg + tilt_offset_deg)
+    e, nn, rng = tc.pixel_to_sea_enu(u, v)
+    return TrackAngles((az0 + pan_offset_deg) % 360.0, el0 + tilt_offset_deg, half, az_rate, el_rate, rng, e, nn)
+
+
+def target_angles(states: TargetStates, e0_m: float, n0_m: float, height_m: float, r_eff_m: float) -> TargetAngles:
+    """Angles of targets seen from a camera at ENU ``(e0, n0, height)`` over a sea of radius ``r_eff_m``.
+
+    The elevation is that of the target's waterline (the sea surface at its range, dropped by
+    the curvature ``d**2 / (2 R_eff)``).
+    """
+    de = states.e_m - e0_m
+    dn = states.n_m - n0_m
+    d2 = de * de + dn * dn
+    d = np.sqrt(d2)
+    az = np.degrees(np.arctan2(de, dn)) % 360.0
+    drop = d2 / (2.0 * r_eff_m)
+    el = np.degrees(np.arctan2(-(height_m + drop), d))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        az_rate = np.degrees((dn * states.ve_mps - de * states.vn_mps) / np.maximum(d2, 1.0))
+        range_rate = (de * states.ve_mps + dn * states.vn_mps) / np.maximum(d, 1.0)
+    # d(el)/dd for el = atan(-(h + d^2/2R) / d)
+    hh = height_m + drop
+    del_dr = np.degrees((hh - d * d / r_eff_m) / np.maximum(d2 + hh * hh, 1.0))
+    return TargetAngles(az, el, d, az_rate, del_dr * range_rate, del_dr)
+
+
+def pair_distance2(
+    trk: TrackAngles,
+    tgt: TargetAngles,
+    age_s: np.ndarray,
+    speed_mps: np.ndarray,
+    sigma_az_deg: float = 0.5,
+    sigma_el_deg: float = 0.3,
+    sigma_rate_dps: float = 0.05,
+    pos_sigma_m: float = 10.0,
+    speed_sigma_frac: float = 0.1,
+) -> np.ndarray:
+    """Normalised squared distance between every camera track and every target, (N, M).
+
+    Azimuth: distance from the target's azimuth to the track box's azimuth interval (the AIS
+    antenna can be anywhere on the hull, and the box covers the hull).  Elevation: waterline
+    elevation.  Motion: azimuth and elevation rates.  Target position uncertainty grows with
+    report age and speed (``pos_sigma_m + speed_sigma_frac * speed * age``) and is converted
+    into angles at the target's range.
+    """
+    daz = np.abs(angle_diff_deg(trk.az_deg[:, None], tgt.az_deg[None, :]))
+    daz = np.maximum(daz - trk.half_width_deg[:, None], 0.0)
+    pos_sig = pos_sigma_m + speed_sigma_frac * speed_mps * age_s
+    rng = np.maximum(tgt.range_m, 1.0)
+    s_az2 = sigma_az_deg ** 2 + np.degrees(pos_sig / rng) ** 2
+    s_el2 = sigma_el_deg ** 2 + (tgt.del_dr * pos_sig) ** 2
+    del_ = trk.el_deg[:, None] - tgt.el_deg[None, :]
+    s_rate = sigma_rate_dps + 0.25 * np.abs(tgt.az_rate_dps)
+    drate = trk.az_rate_dps[:, None] - tgt.az_rate_dps[None, :]
+    s_erate = sigma_rate_dps * 0.5 + 0.25 * np.abs(tgt.el_rate_dps)
+    derate = trk.el_rate_dps[:, None] - tgt.el_rate_dps[None, :]
+    d2 = daz * daz / s_az2[None, :] + del_ * del_ / s_el2[None, :]
+    d2 += (drate / s_rate[None, :]) ** 2 + (derate / s_erate[None, :]) ** 2
+    return d2
+
+
+class WindowAssociator:
+    """One-to-one association of tracks with targets from evidence averaged over a time window.
+
+    Per pair, the per-frame log-likelihood ratio ``llr = (gate**2 - d2) / 2`` (floored at
+    ``-gate**2 / 2``) is averaged with exponential forgetting (time constant ``window_s``).
+    A pair may be assigned when its mean llr exceeds ``min_llr`` and its track has been observed
+    for at least ``min_support_s``; the assignment maximises the summed mean llr (Hungarian),
+    with ``switch_margin`` added to the current assignments (hysteresis).
+
+    Parameters
+    ----------
+    window_s : float, forgetting time constant.
+    gate : float, gate in standard deviations.
+    min_llr : float, minimum mean llr of an assigned pair.
+    min_support_s : float, minimum observed time of a track before it gets an identity.
+    switch_margin : float, llr bonus of the current assignment.
+    forget_s : float, rows of tracks (columns of targets) unseen this long are dropped.
+    """
+
+    def __init__(self, window_s: float = 10.0, gate: float = 3.0, min_llr: float = 1.0,
+                 min_support_s: float = 2.0, switch_margin: float = 1.0, forget_s: float = 30.0):
+        self.window_s = float(window_s)
+        self.gate = float(gate)
+        self.min_llr = float(min_llr)
+        self.min_support_s = float(min_support_s)
+        self.switch_margin = float(switch_margin)
+        self.forget_s = float(forget_s)
+        self.rows: dict[int, int] = {}
+        self.cols: dict[int, int] = {}
+        self.row_ids = np.zeros(16, np.int64)
+        self.col_keys = np.zeros(64, np.int64)
+        self.S = np.zeros((16, 64))  # decayed sum of llr * weight
+        self.W = np.zeros(16)  # decayed observed weight per row
+        self.row_seen = np.full(16, -np.inf)
+        self.col_seen = np.full(64, -np.inf)
+        self.observed_s = np.zeros(16)
+        self.assigned: dict[int, int] = {}  # track id -> target key
+        self.t_last: float | None = None
+        self._free_rows: list[int] = []
+        self._free_cols: list[int] = []
+        self._nr = 0
+        self._nc = 0
+
+    # ---------------------------------------------------------------- index maps
+    def _row(self, tid: int) -> int:
+        r = self.rows.get(tid)
+        if r is None:
+            if self._free_rows:
+                r = self._free_rows.pop()
+            else:
+                r = self._nr
+                self._nr += 1
+                if r >= self.S.shape[0]:
+                    grow = self.S.shape[0]
+                    self.S = np.vstack([self.S, np.zeros((grow, self.S.shape[1]))])
+                    self.W = np.concatenate([self.W, np.zeros(grow)])
+                    self.row_seen = np.concatenate([self.row_seen, np.full(grow, -np.inf)])
+                    self.observed_s = np.concatenate([self.observed_s, np.zeros(grow)])
+                    self.row_ids = np.concatenate([self.row_ids, np.zeros(grow, np.int64)])
+            self.rows[tid] = r
+            self.row_ids[r] = tid
+            self.S[r] = 0.0
+            self.W[r] = 0.0
+            self.observed_s[r] = 0.0
+        return r
+
+    def _col(self, key: int) -> int:
+        c = self.cols.get(key)
+        if c is None:
+            if self._free_cols:
+                c = self._free_cols.pop()
+            else:
+                c = self._nc
+                self._nc += 1
+                if c >= self.S.shape[1]:
+                    grow = self.S.shape[1]
+                    self.S = np.hstack([self.S, np.zeros((self.S.shape[0], grow))])
+                    self.col_seen = np.concatenate([self.col_seen, np.full(grow, -np.inf)])
+                    self.col_keys = np.concatenate([self.col_keys, np.zeros(grow, np.int64)])
+            self.cols[key] = c
+            self.col_keys[c] = key
+            self.S[:, c] = 0.0
+        return c
+
+    def _forget(self, t_s: float) -> None:
+        for tid, r in list(self.rows.items()):
+            if t_s - self.row_seen[r] > self.forget_s:
+                del self.rows[tid]
+                self.assigned.pop(tid, None)
+                self._free_rows.append(r)
+                self.row_seen[r] = -np.inf
+        for key, c in list(self.cols.items()):
+            if t_s - self.col_seen[c] > self.forget_s:
+                del self.cols[key]
+                self._free_cols.append(c)
+                self.col_seen[c] = -np.inf
+                for tid in [t for t, k in self.assigned.items() if k == key]:
+                    del self.assigned[tid]
+
+    # -------------------------------------------------------------------- update
+    def update(self, t_s: float, track_ids: np.ndarray, target_keys: np.ndarray, d2: np.ndarray,
+               eligible: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Add one frame of evidence and (re)assign.
+
+        Parameters
+        ----------
+        t_s : frame time.
+        track_ids : (N,) camera track ids in this frame.
+        target_keys : (M,) target keys present at this time.
+        d2 : (N, M) normalised squared distances (:func:`pair_distance2`).
+        eligible : (N,) bool, tracks that may receive an identity this frame (e.g. confirmed).
+
+        Returns
+        -------
+        keys : (N,) int64, assigned target key per track (0 = none).
+        mean_llr : (N,) mean llr of the assigned pair (NaN when none).
+        """
+        track_ids = np.asarray(track_ids, np.int64)
+        target_keys = np.asarray(target_keys, np.int64)
+        n, m = len(track_ids), len(target_keys)
+        dt = 0.0 if self.t_last is None else max(0.0, t_s - self.t_last)
+        self.t_last = t_s
+        if dt > 0:
+            decay = np.exp(-dt / self.window_s)
+            nr, nc = self._nr, self._nc
+            self.S[:nr, :nc] *= decay
+            self.W[:nr] *= decay
+        w = max(dt, 1e-3) / self.window_s  # weight of this frame's evidence
+        rows = np.fromiter((self._row(int(t)) for t in track_ids), np.int64, n)
+        cols = np.fromiter((self._col(int(k)) for k in target_keys), np.int64, m)
+        self.row_seen[rows] = t_s
+        self.col_seen[cols] = t_s
+        self.observed_s[rows] += dt if dt > 0 else 0.0
+        g2 = self.gate * self.gate
+        if n:
+            llr = 0.5 * (g2 - np.minimum(d2, 2 * g2)) if m else np.zeros((n, 0))
+            # targets absent this frame count as misses for these tracks
+            base = -0.5 * g2 * w
+            self.S[rows, : self._nc] += base
+            if m:
+                self.S[np.ix_(rows, cols)] += (llr - (-0.5 * g2)) * w
+            self.W[rows] += w
+        self._forget(t_s)
+        out = np.zeros(n, np.int64)
+        conf = np.full(n, np.nan)
+        if n == 0 or m == 0:
+            for tid in track_ids.tolist():
+                self.assigned.pop(tid, None)
+            return out, conf
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = self.S[np.ix_(rows, cols)] / self.W[rows][:, None]
+        ok = (self.observed_s[rows] >= self.min_support_s)[:, None] & (mean > self.min_llr) & (d2 < 4 * g2)
+        if eligible is not None:
+            ok &= np.asarray(eligible, bool)[:, None]
+        score = np.where(ok, mean, -1e9)
+        key_index = {int(k): j for j, k in enumerate(target_keys.tolist())}
+        for i, tid in enumerate(track_ids.tolist()):
+            k = self.assigned.get(tid)
+            if k is not None and k in key_index and ok[i, key_index[k]]:
+                score[i, key_index[k]] += self.switch_margin
+        ri, ci = linear_sum_assignment(-score)
+        good = score[ri, ci] > -1e8
+        ri, ci = ri[good], ci[good]
+        for tid in track_ids.tolist():
+            self.assigned.pop(tid, None)
+        out[ri] = target_keys[ci]
+        conf[ri] = mean[ri, ci]
+        for i, j in zip(ri.tolist(), ci.tolist()):
+            self.assigned[int(track_ids[i])] = int(target_keys[j])
+        return out, conf
+
+    def mean_llr(self, track_ids, target_keys) -> np.ndarray:
+        """Current mean llr of pairs (NaN for unknown ids/keys)."""
+        out = np.full((len(track_ids), len(target_keys)), np.nan)
+        for i, t in enumerate(np.asarray(track_ids).tolist()):
+            r = self.rows.get(t)
+            if r is None or self.W[r] <= 0:
+                continue
+            for j, k in enumerate(np.asarray(target_keys).tolist()):
+                c = self.cols.get(k)
+                if c is not None:
+                    out[i, j] = self.S[r, c] / self.W[r]
+        return out

@@ -1,0 +1,609 @@
+"""The :class:`Fuser`: camera tracks + AIS (+ radar/VTS) -> tracks with identities, fused picture, alerts."""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections import deque
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from seawatch.config import FusionSettings
+from seawatch.fuse.alerts import Alert
+from seawatch.fuse.associate import (
+    TrackAngles,
+    WindowAssociator,
+    angle_diff_deg,
+    pair_distance2,
+    target_angles,
+    track_angles,
+)
+from seawatch.fuse.table import TargetTable
+from seawatch.fuse.theta import calibrate_theta_pg, estimate_theta_robust, velocity_cost
+from seawatch.types import AISReport, Frame, FusedTrack, Tracks, TrackState
+
+__all__ = ["Fuser", "Calibration"]
+
+
+
+class Calibration:
+    """Self-calibration of the camera's heading (pan) and tilt from confident matches.
+
+    Samples are ``(t, pair, az_target - az_track, el_target - el_track)`` from raw (uncorrected)
+    camera angles, at most one per pair per ``interval_s``; the offsets are the medians of the
+    latest ``max_samples`` and their standard errors ``1.2533 * 1.4826 * MAD / sqrt(n)``.
+    """
+
+    def __init__(self, max_samples: int = 400, interval_s: float = 1.0, min_samples: int = 10,
+                 max_offset_deg: float = 5.0):
+        self.samples: deque = deque(maxlen=int(max_samples))
+        self.interval_s = float(interval_s)
+        self.min_samples = int(min_samples)
+        self.max_offset_deg = float(max_offset_deg)
+        self._last: dict[tuple[int, int], float] = {}
+        self.pan_offset_deg = 0.0
+        self.tilt_offset_deg = 0.0
+        self.pan_sigma_deg = float("nan")
+        self.tilt_sigma_deg = float("nan")
+
+    def add(self, t_s: float, pair: tuple[int, int], daz_deg: float, del_deg: float) -> None:
+        last = self._last.get(pair)
+        if last is not None and t_s - last < self.interval_s:
+            return
+        self._last[pair] = t_s
+        self.samples.append((daz_deg, del_deg))
+
+    def estimate(self) -> bool:
+        """Recompute the offsets; returns True when they are set (enough samples)."""
+        n = len(self.samples)
+        if n < self.min_samples:
+            return False
+        a = np.asarray(self.samples)
+        med = np.median(a, axis=0)
+        mad = np.median(np.abs(a - med), axis=0)
+        se = 1.2533 * 1.4826 * np.maximum(mad, 1e-3) / math.sqrt(n)
+        self.pan_offset_deg = float(np.clip(med[0], -self.max_offset_deg, self.max_offset_deg))
+        self.tilt_offset_deg = float(np.clip(med[1], -self.max_offset_deg, self.max_offset_deg))
+        self.pan_sigma_deg, self.tilt_sigma_deg = float(se[0]), float(se[1])
+        return True
+
+    def as_dict(self) -> dict:
+        return {
+            "pan_offset_deg": self.pan_offset_deg,
+            "pan_sigma_deg": self.pan_sigma_deg,
+            "tilt_offset_deg": self.tilt_offset_deg,
+            "tilt_sigma_deg": self.tilt_sigma_deg,
+            "n_samples": len(self.samples),
+        }
+
+
+class _AISFeed:
+    """Reports released by time: a replay list (sorted) and/or a live listener."""
+
+    def __init__(self) -> None:
+        self.t: list[float] = []
+        self.reports: list[AISReport] = []
+        self.i = 0
+        self.listeners: list[Any] = []
+
+    def add(self, reports: Iterable[AISReport]) -> None:
+        reps = sorted(reports, key=lambda r: r.t_s)
+        if not reps:
+            return
+        rest = self.reports[self.i:]
+        if rest and reps[0].t_s < rest[-1].t_s:
+            merged = sorted(rest + reps, key=lambda r: r.t_s)
+        else:
+            merged = rest + reps
+        self.reports = merged
+        self.t = [r.t_s for r in merged]
+        self.i = 0
+
+    def release(self, t_s: float) -> list[AISReport]:
+        j = bisect.bisect_right(self.t, t_s, lo=self.i)
+        out = self.reports[self.i:j]
+        self.i = j
+        for lis in self.listeners:
+            out = out + lis.poll()
+        return out
+
+
+class Fuser:
+    """Camera / AIS / radar fusion for one camera (see :mod:`seawatch.fuse` for the API).
+
+    Parameters
+    ----------
+    camera : seawatch.camera.CameraModel
+        The base camera model; a frame's ``ptz`` (or ``pose``) gives the per-frame model.
+    settings : FusionSettings, optional
+    ais : list of AISReport, structured array (``AIS_DTYPE``), path, ``udp://``/``tcp://`` URL or
+        an object with ``poll()``; optional, more can be added with :meth:`add_ais`.
+    radar : structured array of radar/VTS plots (:data:`seawatch.io.radar.RADAR_DTYPE`), optional.
+    camera_id : str
+    """
+
+    def __init__(self, camera, settings: FusionSettings | None = None, ais=None, radar=None,
+                 camera_id: str = "cam0"):
+        self.settings = s = settings or FusionSettings()
+        self.camera = camera
+        self.camera_id = camera_id
+        lat0, lon0 = camera.pose.lat_deg, camera.pose.lon_deg
+        self.ais = TargetTable(lat0, lon0, max_age_s=s.ais_max_age_s)
+        self.vts = TargetTable(lat0, lon0, max_age_s=max(30.0, 3 * s.window_s))
+        mk = lambda: WindowAssociator(s.window_s, s.gate_sigma, s.min_llr, s.min_support_s,  # noqa: E731
+                                      s.switch_margin, forget_s=max(30.0, 3 * s.window_s))
+        self.assoc = mk()
+        self.assoc_vts = mk()
+        self.calib = Calibration(min_samples=s.calib_min_samples, max_offset_deg=s.calib_max_offset_deg)
+        self.theta = estimate_theta_robust(np.zeros((0, 2)), np.zeros((0, 2)))
+        self.theta_pg_deg = float("nan")
+        self._theta_pairs: deque = deque(maxlen=600)
+        self._theta_frames: deque = deque(maxlen=60)
+        self._theta_last_t = -np.inf
+        self._feed = _AISFeed()
+        self._radar: np.ndarray | None = None
+        self._radar_i = 0
+        self._cam_cache: dict = {}
+        self.ais_stats = None
+        # alert state
+        self._first_conf: dict[int, float] = {}
+        self._last_plausible: dict[int, float] = {}
+        self._no_ais_alerted: set[int] = set()
+        self._unseen_since: dict[int, float] = {}
+        self._unseen_alerted: set[int] = set()
+        self._spoof_since: dict[int, float] = {}
+        self._spoof_alerted: set[int] = set()
+        self._history: dict[int, tuple[int, float]] = {}  # track id -> (mmsi, seconds matched)
+        self._track_seen: dict[int, float] = {}
+        self._motion_spoof_since: dict[tuple[int, int], float] = {}
+        self.n_updates = 0
+        self.n_alerts: dict[str, int] = {"no_ais": 0, "ais_not_seen": 0, "possible_spoofing": 0}
+        self._t_prev: float | None = None
+        self.last_picture: list[FusedTrack] = []
+        if ais is not None:
+            self.add_ais(ais)
+        if radar is not None:
+            self.add_radar(radar)
+
+    # ------------------------------------------------------------------- inputs
+    def add_ais(self, ais) -> None:
+        """Add AIS: reports, a structured array, a file/folder path, a stream URL or a listener.
+
+        Reports are released to the track table when the frame clock (plus
+        ``ais_time_offset_s``) reaches their time, so a file replays in step with the video.
+        """
+        if ais is None:
+            return
+        if hasattr(ais, "poll"):
+            self._feed.listeners.append(ais)
+            return
+        if isinstance(ais, (str, Path)):
+            text = str(ais)
+            if text.startswith(("udp://", "tcp://")):
+                from seawatch.io.ais import AISListener
+
+                self._feed.listeners.append(AISListener(text))
+                return
+            from seawatch.io.ais import read_ais
+
+            reps, stats = read_ais(ais)
+            self.ais_stats = stats
+            self._feed.add(reps)
+            return
+        if isinstance(ais, np.ndarray):
+            self._feed.add(
+                AISReport(int(r["mmsi"]), float(r["t_s"]), float(r["lat_deg"]), float(r["lon_deg"]),
+                          float(r["sog_kn"]), float(r["cog_deg"]), float(r["heading_deg"]))
+                for r in ais
+            )
+            return
+        self._feed.add(list(ais))
+
+    def add_radar(self, plots: np.ndarray) -> None:
+        """Add radar/VTS plots (structured array with ``t_s, id, lat_deg, lon_deg, speed_mps,
+        course_deg``), released by time like AIS."""
+        p = np.asarray(plots)
+        if self._radar is not None:
+            p = np.concatenate([self._radar[self._radar_i:], p])
+        self._radar = p[np.argsort(p["t_s"], kind="stable")]
+        self._radar_i = 0
+
+    def close(self) -> None:
+        for lis in self._feed.listeners:
+            if hasattr(lis, "close"):
+                lis.close()
+
+    # ---------------------------------------------------------------- camera
+    def camera_for(self, frame: Frame | None):
+        """The camera model at a frame's PTZ state / pose and image size."""
+        cam = self.camera
+        if frame is None:
+            return cam
+        key = (frame.ptz, frame.pose, frame.shape)
+        hit = self._cam_cache.get(key)
+        if hit is not None:
+            return hit
+        if frame.ptz is not None:
+            cam = cam.with_ptz(frame.ptz)
+        elif frame.pose is not None and frame.pose != cam.pose:
+            cam = cam.with_pose(**{k: getattr(frame.pose, k) for k in ("lat_deg", "lon_deg", "height_m", "pan_deg",
+                                                                        "tilt_deg", "roll_deg")})
+        h, w = frame.shape
+        K = cam.intrinsics
+        if (K.width, K.height) != (w, h) and w > 0 and h > 0:
+            cam = cam.with_intrinsics(K.scaled_to(w, h))
+        if len(self._cam_cache) > 256:
+            self._cam_cache.clear()
+        self._cam_cache[key] = cam
+        return cam
+
+    # -------------------------------------------------------------------- update
+    def update(self, tracks: Tracks, frame: Frame | None = None, t_s: float | None = None) -> tuple[Tracks, list[Alert]]:
+        """Fuse one frame's camera tracks.
+
+        Returns the tracks with ``mmsi`` (0 = none), ``world`` (lat, lon, speed m/s, course) and
+        a ``names`` list attribute filled, and the alerts raised at this frame.
+        """
+        s = self.settings
+        t = float(tracks.t_s if t_s is None else t_s)
+        t_ais = t + s.ais_time_offset_s
+        self.n_updates += 1
+        dt = 0.0 if self._t_prev is None else max(0.0, t - self._t_prev)
+        self._t_prev = t
+        reps = self._feed.release(t_ais)
+        if reps:
+            self.ais.add_reports(reps)
+        if self._radar is not None and self._radar_i < len(self._radar):
+            j = int(np.searchsorted(self._radar["t_s"], t_ais, side="right"))
+            if j > self._radar_i:
+                p = self._radar[self._radar_i:j]
+                self.vts.update(p["id"], p["t_s"], p["lat_deg"], p["lon_deg"], p["speed_mps"], p["course_deg"])
+                self._radar_i = j
+        cam = self.camera_for(frame)
+        n = len(tracks)
+        ids = tracks.ids
+        confirmed = tracks.states != int(TrackState.TENTATIVE)
+        ta = track_angles(cam, tracks.boxes, tracks.velocities, self.calib.pan_offset_deg, self.calib.tilt_offset_deg)
+        # --- AIS
+        st, tg, d2 = self._candidates(self.ais, t_ais, cam, ta)
+        keys, conf = self.assoc.update(t_ais, ids, st.keys, d2, eligible=confirmed)
+        # --- VTS (radar), for tracks without AIS
+        vkeys = np.zeros(n, np.int64)
+        vst = None
+        if len(self.vts):
+            vst, vtg, vd2 = self._candidates(self.vts, t_ais, cam, ta)
+            vkeys, _ = self.assoc_vts.update(t_ais, ids, vst.keys, vd2, eligible=confirmed)
+        # --- calibration from confident, unambiguous matches
+        if s.self_calibrate and n and len(st):
+            self._calibrate(t_ais, ids, ta, st, tg, d2, keys, conf)
+        self._theta_update(t_ais, cam, tracks, ta, st, tg, d2, keys)
+        # --- outputs
+        out = tracks.subset(np.arange(n))
+        out.mmsi = keys.copy()
+        world = self._world(cam, ta, st, tg, keys, vst, vkeys, tracks)
+        out.world = world
+        names = []
+        for k in keys.tolist():
+            names.append(self.ais.names[self.ais.slot(k)] if k else None)
+        out.names = names
+        alerts: list[Alert] = []
+        if s.alerts:
+            alerts = self._alerts(t, t_ais, dt, cam, tracks, ta, st, tg, d2, keys, vkeys, world)
+        self.last_picture = self._picture(t, t_ais, out, keys, st, vst, vkeys)
+        return out, alerts
+
+    def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
+        s = self.settings
+        st = table.states_at(t_ais)
+        e0, n0, _ = 0.0, 0.0, 0.0
+        if len(st):
+            de, dn = st.e_m - e0, st.n_m - n0
+            rng = np.hypot(de, dn)
+            az = np.degrees(np.arctan2(de, dn))
+            half = 0.5 * cam.intrinsics.hfov_deg + s.gate_deg + 5.0
+            keep = (rng <= s.max_range_m) & (np.abs(angle_diff_deg(az, cam.pose.pan_deg)) <= half)
+            if not keep.all():
+                st = st.subset(keep)
+        tg = target_angles(st, 0.0, 0.0, cam.pose.height_m, cam.r_eff_m)
+        if len(ta.az_deg) == 0 or len(st) == 0:
+            return st, tg, np.zeros((len(ta.az_deg), len(st)))
+        sp = st.speed_mps
+        d2 = pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
+                            s.pos_sigma_m + sp * s.ais_latency_s)
+        # hard azimuth gate (box interval plus gate_deg)
+        daz = np.abs(angle_diff_deg(ta.az_deg[:, None], tg.az_deg[None, :])) - ta.half_width_deg[:, None]
+        d2 = np.where(daz > s.gate_deg, np.inf, d2)
+        return st, tg, d2
+
+    def _calibrate(self, t_ais, ids, ta, st, tg, d2, keys, conf) -> None:
+        s = self.settings
+        g2 = s.gate_sigma ** 2
+        col = {int(k): j for j, k in enumerate(st.keys.tolist())}
+        for i, k in enumerate(keys.tolist()):
+            if not k or not (conf[i] > 0.5 * g2 * 0.6):
+                continue
+            j = col.get(k)
+            if j is None:
+                continue
+            row = np.sort(d2[i])
+            colv = np.sort(d2[:, j])
+            # unambiguous: the runner-up (in both directions) is far worse
+            if (len(row) > 1 and row[1] < 4 * g2) or (len(colv) > 1 and colv[1] < 4 * g2):
+                continue
+            raw_az = ta.az_deg[i] - self.calib.pan_offset_deg
+            raw_el = ta.el_deg[i] - self.calib.tilt_offset_deg
+            self.calib.add(t_ais, (int(ids[i]), int(k)), float(angle_diff_deg(tg.az_deg[j], raw_az)),
+                           float(tg.el_deg[j] - raw_el))
+        self.calib.estimate()
+
+    def _ground_velocity(self, cam, tracks: Tracks) -> np.ndarray:
+        """Camera tracks' sea-surface velocity (east, north) m/s in the nominal camera frame."""
+        b = tracks.boxes
+        u = b[:, 0] + b[:, 2] / 2
+        v = b[:, 1] + b[:, 3]
+        vel = tracks.velocities
+        e, nn, _ = cam.pixel_to_sea_enu(np.concatenate([u, u + vel[:, 0]]), np.concatenate([v, v + vel[:, 1]]))
+        m = len(u)
+        return np.stack([e[m:] - e[:m], nn[m:] - nn[:m]], axis=1)
+
+    def _theta_update(self, t_ais, cam, tracks, ta, st, tg, d2, keys) -> None:
+        """Collect velocity pairs for the paper's theta (rotation camera -> VTS/AIS frame)."""
+        if len(tracks) == 0 or len(st) == 0 or t_ais - self._theta_last_t < 1.0:
+            return
+        self._theta_last_t = t_ais
+        cv = self._ground_velocity(cam, tracks)
+        ok = np.isfinite(cv).all(axis=1) & (tracks.states != int(TrackState.TENTATIVE))
+        av = np.stack([st.ve_mps, st.vn_mps], axis=1)
+        col = {int(k): j for j, k in enumerate(st.keys.tolist())}
+        for i, k in enumerate(keys.tolist()):
+            j = col.get(k)
+            if k and j is not None and ok[i]:
+                self._theta_pairs.append((cv[i], av[j]))
+        if ok.any():
+            mask = np.isfinite(d2[ok]) & (d2[ok] < 1e6)  # loose (azimuth) position gate
+            self._theta_frames.append((cv[ok], av, mask))
+        if len(self._theta_pairs) >= 5:
+            c = np.array([p[0] for p in self._theta_pairs])
+            a = np.array([p[1] for p in self._theta_pairs])
+            self.theta = estimate_theta_robust(c, a)
+
+    def calibrate_theta(self, theta0_deg: float | None = None, seed: int = 0, **kwargs) -> float:
+        """Run the paper's policy-gradient calibration of theta on the collected velocity frames."""
+        frames = list(self._theta_frames)
+        if not frames:
+            return float("nan")
+        th, _ = calibrate_theta_pg(frames, self.settings.theta0_deg if theta0_deg is None else theta0_deg,
+                                   seed=seed, **kwargs)
+        self.theta_pg_deg = float(th)
+        return self.theta_pg_deg
+
+    # ---------------------------------------------------------------- outputs
+    def _world(self, cam, ta, st, tg, keys, vst, vkeys, tracks) -> np.ndarray:
+        """lat, lon, speed, course per track: camera bearing with the AIS/VTS range when matched,
+        the camera's sea-surface intersection otherwise."""
+        n = len(keys)
+        e = ta.e_m.copy()
+        nn = ta.n_m.copy()
+        gv = self._ground_velocity(cam, tracks) if n else np.zeros((0, 2))
+        sp = np.hypot(gv[:, 0], gv[:, 1]) if n else np.zeros(0)
+        co = np.degrees(np.arctan2(gv[:, 0], gv[:, 1])) % 360.0 if n else np.zeros(0)
+        for table_st, kk in ((vst, vkeys), (st, keys)):  # AIS last: it wins
+            if table_st is None or not np.any(kk):
+                continue
+            col = {int(k): j for j, k in enumerate(table_st.keys.tolist())}
+            for i, k in enumerate(kk.tolist()):
+                j = col.get(k)
+                if not k or j is None:
+                    continue
+                r = math.hypot(table_st.e_m[j], table_st.n_m[j])
+                a = math.radians(ta.az_deg[i])
+                e[i], nn[i] = r * math.sin(a), r * math.cos(a)
+                sp[i], co[i] = table_st.speed_mps[j], table_st.course_deg[j]
+        world = np.full((n, 4), np.nan)
+        if n:
+            ok = np.isfinite(e) & np.isfinite(nn)
+            lat, lon = self.ais.to_geodetic(np.nan_to_num(e), np.nan_to_num(nn))
+            world[:, 0] = np.where(ok, lat, np.nan)
+            world[:, 1] = np.where(ok, lon, np.nan)
+            world[:, 2] = sp
+            world[:, 3] = co
+        return world
+
+    def _picture(self, t, t_ais, out: Tracks, keys, st, vst, vkeys) -> list[FusedTrack]:
+        pic: list[FusedTrack] = []
+        conf = out.states != int(TrackState.TENTATIVE)
+        for i in np.flatnonzero(conf).tolist():
+            k = int(keys[i])
+            src = ("camera",) + (("ais",) if k else ()) + (("radar",) if vkeys[i] else ())
+            stat = self.ais.static_of(k) if k else {"name": None, "ship_type": None}
+            w = out.world[i]
+            b = out.boxes[i]
+            pic.append(FusedTrack(int(out.ids[i]), t, float(w[0]), float(w[1]), float(w[2]), float(w[3]),
+                                  int(out.ids[i]), (float(b[0]), float(b[1]), float(b[2]), float(b[3])), k,
+                                  stat["name"], stat["ship_type"], src))
+        seen = {int(k) for k in keys.tolist() if k}
+        # AIS vessels not seen by the camera (occluded or out of view) stay on the picture
+        full = self.ais.states_at(t_ais)
+        if len(full):
+            rest = np.array([int(k) not in seen for k in full.keys.tolist()], bool)
+            if rest.any():
+                sub = full.subset(rest)
+                lat, lon = self.ais.to_geodetic(sub.e_m, sub.n_m)
+                sp, co = sub.speed_mps, sub.course_deg
+                for j, k in enumerate(sub.keys.tolist()):
+                    stat = self.ais.static_of(k)
+                    pic.append(FusedTrack(-int(k), t, float(lat[j]), float(lon[j]), float(sp[j]), float(co[j]),
+                                          None, None, int(k), stat["name"], stat["ship_type"], ("ais",)))
+        if vst is not None and len(vst):
+            vseen = {int(k) for k in vkeys.tolist() if k}
+            lat, lon = self.vts.to_geodetic(vst.e_m, vst.n_m)
+            for j, k in enumerate(vst.keys.tolist()):
+                if int(k) in vseen:
+                    continue
+                pic.append(FusedTrack(-(10 ** 10 + int(k)), t, float(lat[j]), float(lon[j]), float(vst.speed_mps[j]),
+                                      float(vst.course_deg[j]), None, None, 0, None, None, ("radar",)))
+        return pic
+
+    def picture(self) -> list[FusedTrack]:
+        """The fused picture of the latest update: every confirmed camera track (with its MMSI,
+        name and type when identified) plus the AIS and radar vessels the camera does not see.
+
+        Ids: camera tracks keep their id; AIS-only vessels have ``-mmsi``; radar-only tracks
+        ``-(10**10 + radar id)``.
+        """
+        return list(self.last_picture)
+
+    # ----------------------------------------------------------------- alerts
+    def _alerts(self, t, t_ais, dt, cam, tracks, ta, st, tg, d2, keys, vkeys, world) -> list[Alert]:
+        s = self.settings
+        out: list[Alert] = []
+        g2 = s.gate_sigma ** 2
+        loose = 4.0 * g2  # plausibility gate for "no AIS": twice the association gate
+        confirmed = tracks.states != int(TrackState.TENTATIVE)
+        ids = tracks.ids.tolist()
+        taken = {int(k) for k in keys.tolist() if k}
+        col = {int(k): j for j, k in enumerate(st.keys.tolist())}
+        # targets assigned to a track are not plausible for the others
+        free_cols = np.array([int(k) not in taken for k in st.keys.tolist()], bool)
+        for tid in list(self._track_seen):
+            if t - self._track_seen[tid] > 60.0:
+                for dct in (self._track_seen, self._first_conf, self._last_plausible, self._history, self._spoof_since):
+                    dct.pop(tid, None)
+                self._no_ais_alerted.discard(tid)
+                self._spoof_alerted.discard(tid)
+        for i, tid in enumerate(ids):
+            self._track_seen[tid] = t
+            if not confirmed[i]:
+                continue
+            self._first_conf.setdefault(tid, t)
+            k = int(keys[i])
+            # -- identity history (for spoofing of matched vessels)
+            if k:
+                m0, secs = self._history.get(tid, (k, 0.0))
+                self._history[tid] = (k, (secs + dt) if m0 == k else 0.0)
+                self._spoof_since.pop(tid, None)
+            else:
+                hist = self._history.get(tid)
+                if hist is not None and hist[1] >= s.min_support_s + s.spoof_dwell_s:
+                    j = col.get(hist[0])
+                    far = j is None or not np.isfinite(d2[i, j]) or d2[i, j] > loose
+                    mslot = self.ais.slot(hist[0])
+                    reported = mslot is not None and t_ais - self.ais.t[mslot] <= s.ais_max_age_s
+                    if far and reported and hist[0] not in taken:
+                        since = self._spoof_since.setdefault(tid, t)
+                        if t - since >= s.spoof_dwell_s and tid not in self._spoof_alerted:
+                            self._spoof_alerted.add(tid)
+                            pos = self.ais.state_of(hist[0], t_ais)
+                            msg = (f"possible spoofing: MMSI {hist[0]} was matched to camera track {tid} but its AIS "
+                                   f"position has left the camera bearing {ta.az_deg[i]:.1f} deg for "
+                                   f"{t - since:.0f} s")
+                            out.append(self._alert(t, "possible_spoofing", msg, tid, hist[0],
+                                                   pos[0] if pos else np.nan, pos[1] if pos else np.nan,
+                                                   ta.az_deg[i]))
+                    else:
+                        self._spoof_since.pop(tid, None)
+            # -- no AIS
+            if k:
+                self._last_plausible[tid] = t
+                self._no_ais_alerted.discard(tid)
+                continue
+            if not np.isfinite(ta.range_m[i]):  # above the horizon: not a vessel on the sea
+                continue
+            if len(st) and np.any(free_cols & (d2[i] < loose)):
+                self._last_plausible[tid] = t
+            start = max(self._first_conf[tid], self._last_plausible.get(tid, -np.inf))
+            if t - start >= s.no_ais_dwell_s and tid not in self._no_ais_alerted:
+                self._no_ais_alerted.add(tid)
+                msg = (f"no AIS: camera track {tid} at bearing {ta.az_deg[i]:.1f} deg, range "
+                       f"{ta.range_m[i]:.0f} m has no AIS counterpart for {t - start:.0f} s")
+                out.append(self._alert(t, "no_ais", msg, tid, 0, world[i, 0], world[i, 1], ta.az_deg[i]))
+        # -- AIS in view but not seen
+        if len(st):
+            out.extend(self._unseen_alerts(t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed))
+        return out
+
+    def _unseen_alerts(self, t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed) -> list[Alert]:
+        s = self.settings
+        out: list[Alert] = []
+        off_p, off_t = self.calib.pan_offset_deg, self.calib.tilt_offset_deg
+        u, v, front = cam.azel_to_pixel(tg.az_deg - off_p, tg.el_deg - off_t)
+        length = np.where(np.isfinite(st.length_m), st.length_m, 10.0)
+        size_px = length * cam.intrinsics.fx / np.maximum(tg.range_m, 1.0)
+        horizon_m = math.sqrt(2.0 * cam.r_eff_m * cam.pose.height_m)
+        visible = (front & cam.in_image(u, v, margin_px=-10.0) & (tg.range_m <= s.max_visible_range_m)
+                   & (tg.range_m < horizon_m) & (size_px >= s.min_visible_px))
+        seen = {int(k) for k in keys.tolist() if k}
+        # occlusion: inside the azimuth extent of any camera track (a nearer vessel may hide it)
+        covered = np.zeros(len(st), bool)
+        if len(tracks):
+            daz = np.abs(angle_diff_deg(tg.az_deg[None, :], ta.az_deg[:, None])) - ta.half_width_deg[:, None]
+            covered = (daz <= s.sigma_az_deg).any(axis=0)
+        gv = None
+        unmatched = [i for i in range(len(tracks)) if confirmed[i] and not keys[i] and np.isfinite(ta.range_m[i])]
+        for j, k in enumerate(st.keys.tolist()):
+            k = int(k)
+            if k in seen or not visible[j] or covered[j]:
+                self._unseen_since.pop(k, None)
+                if k in seen:
+                    self._unseen_alerted.discard(k)
+                continue
+            since = self._unseen_since.setdefault(k, t)
+            if t - since >= s.ais_unseen_dwell_s and k not in self._unseen_alerted:
+                self._unseen_alerted.add(k)
+                lat, lon = self.ais.to_geodetic(st.e_m[j], st.n_m[j])
+                name = self.ais.names[st.slots[j]]
+                label = f"MMSI {k}" + (f" ({name})" if name else "")
+                msg = (f"AIS not seen: {label} reported {tg.range_m[j]:.0f} m away at bearing {tg.az_deg[j]:.1f} deg, "
+                       f"inside the camera view, not seen for {t - since:.0f} s")
+                out.append(self._alert(t, "ais_not_seen", msg, None, k, float(lat), float(lon), tg.az_deg[j]))
+            # an unseen AIS vessel that moves like an unidentified camera vessel: position spoofed?
+            if unmatched and st.speed_mps[j] >= 1.0 and t - since >= 0:
+                if gv is None:
+                    gv = self._ground_velocity(cam, tracks)
+                th = self.theta.theta_deg if np.isfinite(self.theta.theta_deg) else 0.0
+                cost = velocity_cost(gv[unmatched], np.array([[st.ve_mps[j], st.vn_mps[j]]]), th)[:, 0]
+                best = int(np.argmin(cost))
+                i = unmatched[best]
+                pair = (int(tracks.ids[i]), k)
+                if cost[best] < 0.35:
+                    sp0 = self._motion_spoof_since.setdefault(pair, t)
+                    if (t - sp0 >= s.spoof_dwell_s + s.ais_unseen_dwell_s and k not in self._spoof_alerted
+                            and t - since >= s.ais_unseen_dwell_s):
+                        self._spoof_alerted.add(k)
+                        lat, lon = self.ais.to_geodetic(st.e_m[j], st.n_m[j])
+                        msg = (f"possible spoofing: MMSI {k} reports a position {tg.range_m[j]:.0f} m away at bearing "
+                               f"{tg.az_deg[j]:.1f} deg where the camera sees nothing, while unidentified camera "
+                               f"track {pair[0]} at bearing {ta.az_deg[i]:.1f} deg moves like it")
+                        out.append(self._alert(t, "possible_spoofing", msg, pair[0], k, float(lat), float(lon),
+                                               ta.az_deg[i]))
+                else:
+                    self._motion_spoof_since.pop(pair, None)
+        return out
+
+    def _alert(self, t, kind, msg, tid, mmsi, lat, lon, az) -> Alert:
+        self.n_alerts[kind] = self.n_alerts.get(kind, 0) + 1
+        return Alert(float(t), kind, msg, self.camera_id, None if tid is None else int(tid), int(mmsi),
+                     float(lat), float(lon), float(az))
+
+    # ----------------------------------------------------------------- reports
+    @property
+    def calibration(self) -> dict:
+        """Self-calibration state: heading/tilt offsets with standard errors, and theta (paper)."""
+        d = self.calib.as_dict()
+        d.update({"theta_robust_deg": self.theta.theta_deg, "theta_robust_sigma_deg": self.theta.sigma_deg,
+                  "theta_pairs": self.theta.n_inliers, "theta_pg_deg": self.theta_pg_deg})
+        return d
+
+    def summary(self) -> dict:
+        """Counts for a run summary."""
+        return {
+            "updates": self.n_updates,
+            "ais_targets": len(self.ais),
+            "radar_targets": len(self.vts),
+            "alerts": dict(self.n_alerts),
+            "calibration": self.calibration,
+            "ais_input": None if self.ais_stats is None else self.ais_stats.as_dict(),
+        }
+
