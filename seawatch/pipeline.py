@@ -207,7 +207,10 @@ def build_fuser(config: Config, ais: Any, camera=None, fps: float = 25.0, notes:
             notes.append(msg)
         print(f"seawatch: warning: {msg}", file=sys.stderr)
         return None
-    return factory(config, ais=ais, camera=camera, fps=fps)
+    try:
+        return factory(config, ais=ais, camera=camera, fps=fps)
+    except ValueError as exc:  # e.g. no camera model: fusion cannot run, say why
+        raise PipelineError(f"AIS fusion: {exc}") from None
 
 
 # ------------------------------------------------------------------------------ pipeline

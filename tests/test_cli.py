@@ -153,3 +153,18 @@ def test_missing_ais_file_fails_naming_it(tmp_path, video, capsys):
     rc = main(["run", str(video), "--ais", str(tmp_path / "feed.nmea"), "--out", str(tmp_path / "o")])
     assert rc == EXIT_FAIL
     assert "AIS file not found" in (err := _err(capsys)) and "feed.nmea" in err
+
+
+def test_ais_without_camera_explains_why_fusion_cannot_run(tmp_path, video, capsys):
+    fuse = pytest.importorskip("seawatch.fuse")
+    if not hasattr(fuse, "build_fuser"):
+        pytest.skip("fusion not available")
+    from pyais.encode import encode_dict
+
+    s = encode_dict({"type": 1, "mmsi": 235070762, "lat": 50.8, "lon": -1.1}, talker_id="AI")[0]
+    ais = tmp_path / "ais.nmea"
+    ais.write_text(f"10.0 {s}\n")
+    rc = main(["run", str(video), "--ais", str(ais), "--out", str(tmp_path / "o")])
+    assert rc == EXIT_FAIL
+    err = _err(capsys)
+    assert "AIS fusion" in err and "camera" in err
