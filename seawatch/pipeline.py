@@ -301,7 +301,7 @@ class Pipeline:
             from tqdm import tqdm
 
             bar = tqdm(total=total, unit="frame", desc="seawatch", dynamic_ncols=True, leave=True,
-                       file=sys.stderr)
+                       mininterval=0.5, file=sys.stderr)
         t_start = time.perf_counter()
         try:
             for frame in source:
@@ -320,7 +320,7 @@ class Pipeline:
                 if bar is not None:
                     bar.update(1)
                     if self.frames % 10 == 0:
-                        bar.set_postfix(dets=len(res.detections), tracks=len(self.track_ids), refresh=False)
+                        bar.set_postfix(dets=len(res.detections), track_ids=len(self.track_ids), refresh=False)
         finally:
             if bar is not None:
                 bar.close()
