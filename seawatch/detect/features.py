@@ -1,0 +1,653 @@
+"""Temporally stable image features (paper B, step 1).
+
+CenSurE keypoints (OpenCV's ``StarDetector``) are described with SIFT and matched, frame after
+frame, against the set of *active* features with a FLANN 2-nearest-neighbour search.  A match
+counts when its quality ``Q = 1 - S1 / S2`` (``S1``, ``S2`` the descriptor distances to the
+nearest and second-nearest active feature) is at least ``min_quality`` (0.4).  Every active
+feature carries a confidence counter that goes up by one when it is matched and down by one when
+it is not; a feature is *stable* from ``stable_confidence`` (5) on and is removed at 0.
+
+The camera's own motion is estimated from the matches of the stable features (the paper takes
+their mean velocity; here a RANSAC homography by default, which is exact for a camera that pans,
+tilts and zooms about its centre, with the mean as the fallback and as an option).  A match
+whose motion relative to the camera lies beyond ``gate_sigma`` (3) standard deviations of the
+stable features' stays unmatched.  Each feature keeps a short history of its velocity relative
+to the camera (pixels per second), from which the tracker
+(:mod:`seawatch.track.feature_clusters`) computes motion dissimilarities.
+
+The module is a detector-room module: it knows nothing of clusters or tracks.
+
+Examples
+--------
+>>> ext = StableFeatureExtractor(max_keypoints=150)            # doctest: +SKIP
+>>> snap = ext.process(grey_image, t_s=0.04)                     # doctest: +SKIP
+>>> snap.xy[snap.stable]                                         # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = [
+    "FeatureSnapshot",
+    "StableFeatureExtractor",
+    "to_grey_u8",
+    "select_keypoints",
+    "match_quality",
+]
+
+_DESC_DIM = 128
+_MOTION_MODELS = ("zoom_pan", "similarity", "homography", "mean")
+
+
+def to_grey_u8(image: np.ndarray, low_pct: float = 1.0, high_pct: float = 99.5) -> np.ndarray:
+    """An 8-bit grey image from an EO (BGR) or IR (grey, 8 or 16 bit, or float) image.
+
+    Images that are not 8-bit (IR, typically 14 or 16 bit) are stretched linearly between their
+    ``low_pct`` and ``high_pct`` percentiles.
+
+    Raises
+    ------
+    ValueError
+        When the array is not an image (not 2-D or 3-D with 1, 3 or 4 channels, or empty).
+    """
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[:, :, 0]
+    if img.size == 0 or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] not in (3, 4)):
+        raise ValueError(f"features: not an image, array of shape {img.shape}")
+    if img.ndim == 3:
+        if img.dtype != np.uint8:
+            img = to_grey_u8(img.astype(np.float32).mean(axis=2), low_pct, high_pct)
+            return img
+        code = cv2.COLOR_BGR2GRAY if img.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
+        return cv2.cvtColor(img, code)
+    if img.dtype == np.uint8:
+        return np.ascontiguousarray(img)
+    f = img.astype(np.float32)
+    finite = np.isfinite(f)
+    if not finite.any():
+        raise ValueError("features: image has no finite pixel")
+    lo, hi = np.percentile(f[finite], [low_pct, high_pct])
+    if hi <= lo:
+        hi = lo + 1.0
+    out = np.clip((np.where(finite, f, lo) - lo) * (255.0 / (hi - lo)), 0, 255)
+    return out.astype(np.uint8)
+
+
+def select_keypoints(
+    xy: np.ndarray, response: np.ndarray, shape: tuple[int, int], max_keypoints: int,
+    grid_cells: tuple[int, int] = (8, 6),
+) -> np.ndarray:
+    """Indices of at most ``max_keypoints`` keypoints, spread over the image.
+
+    The image is cut into ``grid_cells`` (columns, rows); each cell first keeps its strongest
+    ``ceil(max_keypoints / cells)`` keypoints (by absolute response), and the remaining budget
+    goes to the strongest of the rest, so that a strongly textured coastline cannot take the
+    whole budget from a weakly textured boat.
+
+    Parameters
+    ----------
+    xy : (N, 2) keypoint positions (x, y) in pixels.
+    response : (N,) detector responses.
+    shape : (height, width) of the image.
+    max_keypoints : int, 0 or less keeps all.
+    grid_cells : (columns, rows) of the bucketing grid.
+
+    Returns
+    -------
+    (M,) int index array, strongest first within the selection order.
+    """
+    n = len(xy)
+    strength = np.abs(np.asarray(response, dtype=np.float64))
+    order = np.argsort(-strength, kind="stable")
+    if max_keypoints <= 0 or n <= max_keypoints:
+        return order
+    gx, gy = max(1, int(grid_cells[0])), max(1, int(grid_cells[1]))
+    h, w = shape
+    cx = np.clip((xy[:, 0] * gx / max(w, 1)).astype(np.int64), 0, gx - 1)
+    cy = np.clip((xy[:, 1] * gy / max(h, 1)).astype(np.int64), 0, gy - 1)
+    cell = cy * gx + cx
+    # rank of each keypoint within its cell, by strength
+    srt = np.lexsort((-strength, cell))
+    cell_sorted = cell[srt]
+    first = np.r_[0, np.flatnonzero(np.diff(cell_sorted)) + 1]
+    starts = np.repeat(first, np.diff(np.r_[first, n]))
+    rank = np.empty(n, np.int64)
+    rank[srt] = np.arange(n) - starts
+    quota = int(np.ceil(max_keypoints / (gx * gy)))
+    primary = order[rank[order] < quota]
+    if len(primary) >= max_keypoints:
+        return primary[:max_keypoints]
+    rest = order[rank[order] >= quota]
+    return np.r_[primary, rest[: max_keypoints - len(primary)]]
+
+
+def match_quality(d1_sq: np.ndarray, d2_sq: np.ndarray) -> np.ndarray:
+    """Match quality ``Q = 1 - S1 / S2`` from squared descriptor distances (1 when S2 is 0... or S1 is 0)."""
+    s1 = np.sqrt(np.maximum(np.asarray(d1_sq, np.float64), 0.0))
+    s2 = np.sqrt(np.maximum(np.asarray(d2_sq, np.float64), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = 1.0 - s1 / s2
+    return np.where(s2 > 0, q, np.where(s1 > 0, 0.0, 1.0))
+
+
+@dataclass
+class FeatureSnapshot:
+    """The active features after one frame.
+
+    Attributes
+    ----------
+    t_s, frame_index : time and index of the frame.
+    ids : (N,) int64 feature identities (unique within a run).
+    slots : (N,) int64 storage slot of each feature (stable over its life, reused after it).
+    xy : (N, 2) float64 positions (observed this frame, or predicted with the camera motion).
+    size_px : (N,) keypoint diameters in pixels.
+    confidence : (N,) int confidence counters.
+    stable : (N,) bool, confidence at least the stable threshold.
+    matched : (N,) bool, matched (observed) in this frame.
+    velocity : (N, 2) velocity relative to the camera, px/s (NaN when not matched this frame).
+    history : (N, W, 2) velocity samples relative to the camera in px/s over the last W frames,
+        oldest first, the last column being this frame; NaN where the feature was not seen.
+        Column ``k`` is the same frame for every feature.
+    image_velocity : (N, 2) velocity in the image (camera motion included), px/s.
+    homography : (3, 3) the camera motion from the previous frame to this one.
+    dt_s : seconds since the previous frame.
+    n_keypoints : keypoints described this frame.
+    n_matched : features matched this frame.
+    camera_motion_ok : whether the camera motion came from enough stable matches.
+    shape : (height, width) of the image.
+    """
+
+    t_s: float
+    frame_index: int
+    ids: np.ndarray
+    slots: np.ndarray
+    xy: np.ndarray
+    size_px: np.ndarray
+    confidence: np.ndarray
+    stable: np.ndarray
+    matched: np.ndarray
+    velocity: np.ndarray
+    history: np.ndarray
+    image_velocity: np.ndarray
+    homography: np.ndarray
+    dt_s: float
+    n_keypoints: int
+    n_matched: int
+    camera_motion_ok: bool = True
+    shape: tuple[int, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def _apply_h(h: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Apply a 3x3 homography to (..., 2) points (NaN stays NaN)."""
+    p = np.asarray(xy, np.float64)
+    x, y = p[..., 0], p[..., 1]
+    den = h[2, 0] * x + h[2, 1] * y + h[2, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = (h[0, 0] * x + h[0, 1] * y + h[0, 2]) / den
+        v = (h[1, 0] * x + h[1, 1] * y + h[1, 2]) / den
+    return np.stack([u, v], axis=-1)
+
+
+def fit_zoom_pan(
+    src: np.ndarray, dst: np.ndarray, threshold_px: float = 1.0, n_iter: int = 128, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Robust fit of ``dst = s * src + t`` (zoom and pan/tilt of a camera that does not roll).
+
+    MSAC on two-point samples (pairs at least a tenth of the points' extent apart, so that the
+    scale of a sample is meaningful), then least squares on the inliers, twice.
+
+    Parameters
+    ----------
+    src, dst : (N, 2) matched positions, N >= 2.
+    threshold_px : float, inlier distance.
+    n_iter : int, number of random samples.
+    seed : int, seed of the sampler.
+
+    Returns
+    -------
+    h : (3, 3) homography ``[[s, 0, tx], [0, s, ty], [0, 0, 1]]``.
+    inliers : (N,) bool.
+    """
+    src = np.asarray(src, np.float64)
+    dst = np.asarray(dst, np.float64)
+    n = len(src)
+    if n < 2:
+        raise ValueError("fit_zoom_pan: needs at least 2 matches")
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, n, n_iter)
+    b = (a + rng.integers(1, n, n_iter)) % n
+    ds = np.linalg.norm(src[a] - src[b], axis=1)
+    dd = np.linalg.norm(dst[a] - dst[b], axis=1)
+    extent = float(np.linalg.norm(src.max(axis=0) - src.min(axis=0)))
+    ok = ds > max(0.1 * extent, 1e-6)
+    if not ok.any():
+        ok = ds > 1e-6
+    sc = np.r_[1.0, dd[ok] / ds[ok]]
+    t = np.r_[[np.median(dst - src, axis=0)], dst[a[ok]] - sc[1:, None] * src[a[ok]]]  # (M, 2)
+    thr2 = threshold_px**2
+    for wide in (4.0, 1.0):  # local optimisation of every sample: weighted least squares
+        err2 = np.sum((sc[:, None, None] * src[None] + t[:, None, :] - dst[None]) ** 2, axis=2)
+        w = (err2 < wide * thr2).astype(np.float64)  # (M, N)
+        wn = np.maximum(w.sum(axis=1), 1.0)
+        ms = (w @ src) / wn[:, None]
+        md = (w @ dst) / wn[:, None]
+        num = w @ np.sum(src * dst, axis=1) - wn * np.sum(ms * md, axis=1)
+        den = w @ np.sum(src * src, axis=1) - wn * np.sum(ms * ms, axis=1)
+        good = (w.sum(axis=1) >= 2) & (den > 1e-9)
+        sc = np.where(good, num / np.where(good, den, 1.0), sc)
+        t = np.where(good[:, None], md - sc[:, None] * ms, t)
+    err2 = np.sum((sc[:, None, None] * src[None] + t[:, None, :] - dst[None]) ** 2, axis=2)
+    best = int(np.argmin(np.minimum(err2, thr2).sum(axis=1)))
+    inl = err2[best] < thr2
+    s_, t_ = float(sc[best]), t[best]
+    h = np.array([[s_, 0.0, t_[0]], [0.0, s_, t_[1]], [0.0, 0.0, 1.0]])
+    return h, inl
+
+
+class StableFeatureExtractor:
+    """Extract, match and keep temporally stable features (paper B, step 1).
+
+    Parameters
+    ----------
+    max_keypoints : int
+        Keypoints described per frame (the SIFT descriptor cost grows with it); spread over
+        the image by :func:`select_keypoints`.  0 keeps all.
+    grid_cells : (int, int)
+        Columns and rows of the keypoint bucketing grid.
+    star_max_size, star_response_threshold, star_line_threshold_projected,
+    star_line_threshold_binarized, star_suppress_nonmax_size : int
+        CenSurE (``cv2.xfeatures2d.StarDetector``) parameters.  The largest filter size is kept
+        small (16) because the SIFT descriptor window grows with the keypoint size.
+    min_quality : float
+        Match quality ``Q = 1 - S1/S2`` needed for a match (paper: 0.4).
+    stable_confidence : int
+        Confidence at which a feature is stable (paper: 5).
+    max_confidence : int
+        Cap of the confidence counter (not given in the paper), so that a feature that has
+        been seen for long disappears within ``max_confidence`` frames once it stops matching.
+    gate_sigma : float
+        Matches whose velocity relative to the camera lies beyond this many standard deviations
+        of the stable features' mean stay unmatched (paper: 3).
+    gate_min_px_s : float
+        Floor of that gate in px/s (the standard deviation is near 0 when all stable features
+        are background; a boat must still be allowed to move).
+    velocity_window_s : float
+        Baseline over which a feature's velocity relative to the camera is measured (its
+        position now minus its position ``velocity_window_s`` ago, carried into the current
+        frame by the camera motion).  One frame interval reproduces the paper's per-frame
+        velocity; a longer baseline divides the keypoint localisation noise.
+    history_s : float
+        Length of the velocity history kept for the dissimilarity.
+    camera_motion : {"homography", "similarity", "mean"}
+        Model of the camera's own motion between frames ("mean" is the paper's).
+    ransac_px : float
+        RANSAC reprojection threshold for the homography and similarity models.
+    min_camera_matches : int
+        Stable matches needed to fit the camera model (fewer: all matches; fewer than 4: the
+        mean displacement; none: no motion).
+    flann_trees, flann_checks : int
+        FLANN randomised kd-tree parameters.
+    nominal_fps : float
+        Frame rate assumed for the first frame and when two frames share a time stamp.
+    subpixel : bool
+        Refine the positions of matched features to sub-pixel accuracy with Lucas-Kanade (not
+        in the paper: CenSurE positions are whole pixels, and that quantisation noise is as
+        large as the motion of a slow boat between two frames).
+    subpixel_win_px, subpixel_max_px, subpixel_min_eig : int, float, float
+        Lucas-Kanade window, how far the refined position may lie from the keypoint, and the
+        smallest eigenvalue of the window's gradient matrix (OpenCV's ``minEigThreshold``)
+        below which the window is too flat or too edge-like to follow.
+    """
+
+    def __init__(
+        self,
+        *,
+        max_keypoints: int = 200,
+        grid_cells: tuple[int, int] = (8, 6),
+        star_max_size: int = 16,
+        star_response_threshold: int = 10,
+        star_line_threshold_projected: int = 10,
+        star_line_threshold_binarized: int = 8,
+        star_suppress_nonmax_size: int = 5,
+        min_quality: float = 0.4,
+        stable_confidence: int = 5,
+        max_confidence: int = 10,
+        gate_sigma: float = 3.0,
+        gate_min_px_s: float = 250.0,
+        velocity_window_s: float = 0.4,
+        history_s: float = 0.6,
+        camera_motion: str = "zoom_pan",
+        ransac_px: float = 0.5,
+        min_camera_matches: int = 8,
+        flann_trees: int = 4,
+        flann_checks: int = 32,
+        nominal_fps: float = 25.0,
+        subpixel: bool = True,
+        subpixel_win_px: int = 15,
+        subpixel_max_px: float = 3.0,
+        subpixel_min_eig: float = 1e-3,
+    ) -> None:
+        if camera_motion not in _MOTION_MODELS:
+            raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
+        if not 0.0 <= min_quality <= 1.0:
+            raise ValueError(f"features: min_quality must lie in [0, 1], got {min_quality}")
+        if stable_confidence < 1 or max_confidence < stable_confidence:
+            raise ValueError(
+                f"features: need 1 <= stable_confidence ({stable_confidence}) <= max_confidence ({max_confidence})"
+            )
+        if nominal_fps <= 0 or velocity_window_s < 0 or history_s < 0:
+            raise ValueError("features: nominal_fps must be > 0, velocity_window_s and history_s >= 0")
+        self.max_keypoints = int(max_keypoints)
+        self.grid_cells = (int(grid_cells[0]), int(grid_cells[1]))
+        self.min_quality = float(min_quality)
+        self.stable_confidence = int(stable_confidence)
+        self.max_confidence = int(max_confidence)
+        self.gate_sigma = float(gate_sigma)
+        self.gate_min_px_s = float(gate_min_px_s)
+        self.velocity_window_s = float(velocity_window_s)
+        self.history_s = float(history_s)
+        self.camera_motion = camera_motion
+        self.ransac_px = float(ransac_px)
+        self.min_camera_matches = int(min_camera_matches)
+        self.flann_trees = int(flann_trees)
+        self.flann_checks = int(flann_checks)
+        self.nominal_fps = float(nominal_fps)
+        self.subpixel = bool(subpixel)
+        self.subpixel_win_px = int(subpixel_win_px)
+        self.subpixel_max_px = float(subpixel_max_px)
+        self.subpixel_min_eig = float(subpixel_min_eig)
+        self._star = cv2.xfeatures2d.StarDetector_create(
+            int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
+            int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
+        )
+        self._sift = cv2.SIFT_create()
+        # frames kept in the position ring (velocity baseline) and in the velocity ring
+        self._k = max(2, int(round(self.velocity_window_s * self.nominal_fps)) + 1)
+        self._w = max(1, int(round(self.history_s * self.nominal_fps)))
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Forget every feature (e.g. after a cut in the video)."""
+        self._cap = 0
+        self._ids = np.zeros(0, np.int64)
+        self._alive = np.zeros(0, bool)
+        self._xy = np.zeros((0, 2))
+        self._size = np.zeros(0)
+        self._desc = np.zeros((0, _DESC_DIM), np.float32)
+        self._conf = np.zeros(0, np.int32)
+        self._pos = np.zeros((0, self._k, 2))  # past observed positions, in current-frame pixels
+        self._vel = np.zeros((0, self._w, 2))  # velocity samples, px/s
+        self._ivel = np.zeros((0, 2))
+        self._tpos = np.full(self._k, np.nan)  # time of each position-ring column
+        self._next_id = 0
+        self._n = 0  # frames processed
+        self._t_prev: float | None = None
+        self._shape: tuple[int, int] | None = None
+        self._grey_prev: np.ndarray | None = None
+
+    def _grow(self, need: int) -> None:
+        if need <= self._cap:
+            return
+        new = max(need, 2 * self._cap, 256)
+        extra = new - self._cap
+
+        def pad(a, fill, *tail, dtype=None):
+            return np.concatenate([a, np.full((extra, *tail), fill, dtype=dtype or a.dtype)])
+
+        self._ids = pad(self._ids, -1)
+        self._alive = pad(self._alive, False)
+        self._xy = pad(self._xy, np.nan, 2)
+        self._size = pad(self._size, 0.0)
+        self._desc = pad(self._desc, 0.0, _DESC_DIM)
+        self._conf = pad(self._conf, 0)
+        self._pos = pad(self._pos, np.nan, self._k, 2)
+        self._vel = pad(self._vel, np.nan, self._w, 2)
+        self._ivel = pad(self._ivel, np.nan, 2)
+        self._cap = new
+
+    @property
+    def n_active(self) -> int:
+        """Number of active features."""
+        return int(self._alive.sum())
+
+    # ---------------------------------------------------------------- helpers
+    def _keypoints(self, grey: np.ndarray):
+        kps = self._star.detect(grey)
+        if not kps:
+            return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
+        xy = np.array([k.pt for k in kps], np.float64)
+        resp = np.array([k.response for k in kps], np.float64)
+        keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells)
+        kps = [kps[i] for i in keep]
+        kps, desc = self._sift.compute(grey, kps)
+        if desc is None or not kps:
+            return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
+        xy = np.array([k.pt for k in kps], np.float64)
+        size = np.array([k.size for k in kps], np.float64)
+        return xy, size, np.ascontiguousarray(desc, np.float32)
+
+    def _match(self, desc: np.ndarray, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(query index, active slot) of the matches passing the quality test, one per slot."""
+        if len(act) < 2 or len(desc) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        index = cv2.flann_Index(self._desc[act], dict(algorithm=1, trees=self.flann_trees))
+        nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
+        nn = nn.astype(np.int64)
+        q = match_quality(dist[:, 0], dist[:, 1])
+        ok = (q >= self.min_quality) & (nn[:, 0] >= 0)
+        qi = np.flatnonzero(ok)
+        ti = nn[qi, 0]
+        d1 = dist[qi, 0]
+        # one query per active feature: the nearest
+        srt = np.lexsort((d1, ti))
+        ti_s = ti[srt]
+        first = np.r_[True, ti_s[1:] != ti_s[:-1]]
+        sel = srt[first]
+        return qi[sel], act[ti[sel]]
+
+    def _camera_motion(self, src: np.ndarray, dst: np.ndarray, stable: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Homography of the camera motion from matched (src -> dst) positions."""
+        eye = np.eye(3)
+        ok = bool(stable.sum() >= self.min_camera_matches)
+        use = stable if ok else np.ones(len(src), bool)
+        s, d = src[use], dst[use]
+        if len(s) == 0:
+            return eye, False
+        mean_h = eye.copy()
+        mean_h[:2, 2] = np.mean(d - s, axis=0) if self.camera_motion == "mean" else np.median(d - s, axis=0)
+        if self.camera_motion == "mean" or len(s) < 4:
+            return mean_h, ok and self.camera_motion == "mean"
+        if self.camera_motion == "zoom_pan":
+            h, inl = fit_zoom_pan(s, d, self.ransac_px, seed=self._n)
+            if inl.sum() < 3:
+                return mean_h, False
+        else:
+            s32, d32 = s.astype(np.float32), d.astype(np.float32)
+            if self.camera_motion == "homography" and len(s) >= 8:
+                h, inl = cv2.findHomography(s32, d32, cv2.RANSAC, self.ransac_px, maxIters=200, confidence=0.99)
+            else:
+                a, inl = cv2.estimateAffinePartial2D(
+                    s32, d32, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px, maxIters=200
+                )
+                h = None if a is None else np.vstack([a, [0.0, 0.0, 1.0]])
+            if h is None or not np.all(np.isfinite(h)) or inl is None or inl.sum() < 4:
+                return mean_h, False
+        h = h / h[2, 2]
+        # reject degenerate fits (a camera does not flip, shear strongly or zoom 2x in a frame)
+        det = np.linalg.det(h[:2, :2])
+        if not (0.5 < det < 2.0) or abs(h[2, 0]) > 1e-2 or abs(h[2, 1]) > 1e-2:
+            return mean_h, False
+        return h, ok
+
+    def _refine(self, prev: np.ndarray, grey: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """Sub-pixel positions of matched features: pyramidal Lucas-Kanade from their previous
+        position, started at the matched keypoint.  Where LK fails or strays, the keypoint's
+        position is kept and ``ok`` is False (the feature's past positions are then dropped, so
+        that the jump does not read as motion)."""
+        p0 = src.astype(np.float32).reshape(-1, 1, 2)
+        p1 = dst.astype(np.float32).reshape(-1, 1, 2).copy()
+        if not (np.isfinite(p0).all() and np.isfinite(p1).all()):
+            return dst, np.zeros(len(dst), bool)
+        p1, status, _ = cv2.calcOpticalFlowPyrLK(
+            prev, grey, p0, p1, winSize=(self.subpixel_win_px, self.subpixel_win_px), maxLevel=1,
+            criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 10, 0.01),
+            flags=cv2.OPTFLOW_USE_INITIAL_FLOW, minEigThreshold=self.subpixel_min_eig,
+        )
+        p1 = p1.reshape(-1, 2).astype(np.float64)
+        ok = (status.reshape(-1) == 1) & (np.linalg.norm(p1 - dst, axis=1) <= self.subpixel_max_px)
+        out = dst.copy()
+        out[ok] = p1[ok]
+        return out, ok
+
+    # ----------------------------------------------------------------- main
+    def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None) -> FeatureSnapshot:
+        """Detect, describe and match the features of one frame; update the active set.
+
+        Parameters
+        ----------
+        image : (H, W, 3) BGR uint8, or (H, W) grey (uint8, uint16 or float for IR).
+        t_s : float, time of the frame in seconds (increasing).
+        frame_index : int, optional; defaults to the number of frames processed.
+
+        Raises
+        ------
+        ValueError
+            When the image is not an image.
+        """
+        grey = to_grey_u8(image)
+        if self._shape is not None and grey.shape != self._shape:
+            self.reset()  # a new source or resolution: nothing matches any more
+        self._shape = grey.shape
+        fi = self._n if frame_index is None else int(frame_index)
+        dt = 1.0 / self.nominal_fps
+        if self._t_prev is not None and t_s > self._t_prev:
+            dt = float(t_s - self._t_prev)
+        self._t_prev = float(t_s)
+
+        kxy, ksize, kdesc = self._keypoints(grey)
+        act = np.flatnonzero(self._alive)
+        qi, si = self._match(kdesc, act)
+        h = np.eye(3)
+        motion_ok = False
+        jumped = np.zeros(len(qi), bool)
+        if len(qi) and self.subpixel and self._grey_prev is not None:
+            kxy[qi], ok = self._refine(self._grey_prev, grey, self._xy[si], kxy[qi])
+            jumped = ~ok
+        if len(qi):
+            src = self._xy[si]
+            dst = kxy[qi]
+            stable = self._conf[si] >= self.stable_confidence
+            h, motion_ok = self._camera_motion(src, dst, stable)
+            # gate: velocity relative to the camera against the stable features' statistics
+            res = (dst - _apply_h(h, src)) / dt
+            ref = res[stable] if stable.sum() >= 2 else res
+            mu = ref.mean(axis=0)
+            sigma = float(np.sqrt(np.mean(np.sum((ref - mu) ** 2, axis=1))))
+            keep = np.linalg.norm(res - mu, axis=1) <= max(self.gate_sigma * sigma, self.gate_min_px_s)
+            qi, si, jumped = qi[keep], si[keep], jumped[keep]
+
+        # carry every position into this frame with the camera motion
+        if act.size:
+            self._xy[act] = _apply_h(h, self._xy[act])
+            self._pos[act] = _apply_h(h, self._pos[act])
+        col = self._n % self._k
+        vcol = self._n % self._w
+        self._tpos[col] = t_s
+        self._pos[:, col] = np.nan
+        self._vel[:, vcol] = np.nan
+        self._ivel[act] = np.nan
+
+        # matched features (those whose position could not be followed start a new history)
+        self._pos[si[jumped]] = np.nan
+        self._xy[si] = kxy[qi]
+        self._size[si] = ksize[qi]
+        self._desc[si] = kdesc[qi]
+        self._pos[si, col] = kxy[qi]
+        self._conf[act] -= 1
+        self._conf[si] += 2
+        np.minimum(self._conf, self.max_confidence, out=self._conf)
+        if len(si):
+            # velocity relative to the camera: position now minus the oldest position seen
+            # within the baseline, both in this frame's pixels
+            ages = (col - np.arange(self._k)) % self._k  # frames ago of each ring column
+            past = self._pos[si]
+            seen = np.isfinite(past[:, :, 0]) & (ages[None, :] > 0)
+            score = np.where(seen, ages[None, :], -1)
+            j = np.argmax(score, axis=1)
+            rows = np.arange(len(si))
+            el = t_s - self._tpos[j]
+            has = (score[rows, j] > 0) & (el > 0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                v = (kxy[qi] - past[rows, j]) / el[:, None]
+            v[~has] = np.nan
+            self._vel[si, vcol] = v
+            # image velocity = relative velocity + the camera's image motion at that point
+            cam = (kxy[qi] - _apply_h(np.linalg.inv(h), kxy[qi])) / dt
+            self._ivel[si] = np.where(np.isfinite(v), v, 0.0) + cam
+
+        # remove the features whose confidence fell to zero
+        dead = act[self._conf[act] <= 0]
+        self._alive[dead] = False
+        self._ids[dead] = -1
+        self._pos[dead] = np.nan
+        self._vel[dead] = np.nan
+
+        # unmatched keypoints become new features
+        new_q = np.setdiff1d(np.arange(len(kxy)), qi, assume_unique=True)
+        if len(new_q):
+            free = np.flatnonzero(~self._alive)
+            if len(free) < len(new_q):
+                self._grow(self._cap + len(new_q) - len(free))
+                free = np.flatnonzero(~self._alive)
+            s = free[: len(new_q)]
+            self._alive[s] = True
+            self._ids[s] = np.arange(self._next_id, self._next_id + len(s))
+            self._next_id += len(s)
+            self._xy[s] = kxy[new_q]
+            self._size[s] = ksize[new_q]
+            self._desc[s] = kdesc[new_q]
+            self._conf[s] = 1
+            self._pos[s] = np.nan
+            self._pos[s, col] = kxy[new_q]
+            self._vel[s] = np.nan
+            self._ivel[s] = np.nan
+        self._n += 1
+        self._grey_prev = grey
+        return self._snapshot(t_s, fi, h, dt, len(kxy), len(si), motion_ok, matched_slots=si)
+
+    def _snapshot(self, t_s, fi, h, dt, n_kp, n_matched, motion_ok, matched_slots) -> FeatureSnapshot:
+        act = np.flatnonzero(self._alive)
+        matched = np.zeros(self._cap, bool)
+        matched[matched_slots] = True
+        vcol = (self._n - 1) % self._w
+        order = (np.arange(self._w) + vcol + 1) % self._w  # oldest first, this frame last
+        hist = self._vel[act][:, order]
+        return FeatureSnapshot(
+            t_s=float(t_s),
+            frame_index=int(fi),
+            ids=self._ids[act].copy(),
+            slots=act,
+            xy=self._xy[act].copy(),
+            size_px=self._size[act].copy(),
+            confidence=self._conf[act].copy(),
+            stable=self._conf[act] >= self.stable_confidence,
+            matched=matched[act],
+            velocity=hist[:, -1].copy() if len(act) else np.zeros((0, 2)),
+            history=hist,
+            image_velocity=self._ivel[act].copy(),
+            homography=h,
+            dt_s=float(dt),
+            n_keypoints=int(n_kp),
+            n_matched=int(n_matched),
+            camera_motion_ok=bool(motion_ok),
+            shape=self._shape,
+        )

@@ -1,0 +1,510 @@
+"""Tracking by clustering temporally stable features (paper B, steps 2 to 4).
+
+Osborne, Cane, Nawaz and Ferryman, "Temporally stable feature clusters for maritime object
+tracking in visible and thermal imagery", AVSS 2015.  The stable features of
+:mod:`seawatch.detect.features` are grouped, frame after frame, into objects:
+
+1. **Motion dissimilarity** of two features over the frames where both were seen
+   (:func:`motion_dissimilarity`): the mean normalised angle between their velocities
+   ``Theta`` and the mean magnitude term ``Lambda = N(m_fast) (1 - m_slow / m_fast)`` with
+   ``N(m) = 1 / (1 + exp(p - m))``; ``D = sqrt(Theta^2 + Lambda^2)``, and ``D = 1000`` when
+   they share no frame.
+2. **Per-frame graph**: an edge between two stable features when ``D < Dmax`` and they are
+   closer than ``R`` pixels (:func:`frame_edges`).
+3. **Affinity graph** (:class:`AffinityClusters`): the weight of a pair grows by ``alpha`` when
+   the pair is an edge of the frame's graph and decays by 1 otherwise; a link forms when the
+   weight reaches ``Wlink`` and breaks when it falls to 0.  The connected components of the
+   links with at least two features are the objects.  A component takes the identity its
+   features carried; a merge keeps the oldest identity, and of the parts of a split one keeps
+   the identity (the one holding most of its features) and the others get new ones
+   (:func:`assign_identities`).
+4. :class:`StableFeatureTracker` is the pipeline's detector-tracker stage: frames in, the
+   clusters' boxes out as :class:`~seawatch.types.Detections` and
+   :class:`~seawatch.types.Tracks`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from seawatch.detect.features import FeatureSnapshot, StableFeatureExtractor
+from seawatch.types import Detections, Frame, Tracks, TrackState
+
+__all__ = [
+    "NO_COMMON_FRAME",
+    "motion_dissimilarity",
+    "frame_edges",
+    "assign_identities",
+    "AffinityClusters",
+    "ClusterParams",
+    "FeatureClusterer",
+    "StableFeatureTracker",
+]
+
+NO_COMMON_FRAME = 1000.0  # dissimilarity of two features that were never seen in the same frame
+
+
+def motion_dissimilarity(
+    va: np.ndarray, vb: np.ndarray, p_px: float = 3.0, frame_interval_s: float = 0.04
+) -> np.ndarray:
+    """Motion dissimilarity of pairs of feature tracks.
+
+    Parameters
+    ----------
+    va, vb : (..., W, 2) velocity samples (px/s) of the two features of each pair over the same
+        W frames, NaN where a feature was not seen.
+    p_px : float
+        Midpoint of the magnitude sigmoid ``N(m) = 1 / (1 + exp(p - m))``, in pixels per frame
+        interval (paper: 3 px).
+    frame_interval_s : float
+        The frame interval that the magnitudes ``m`` are expressed in (paper: per frame; 0.04 s,
+        i.e. 25 frames/s), so the result does not depend on the frame rate.
+
+    Returns
+    -------
+    (...) float64: ``D = sqrt(Theta^2 + Lambda^2)`` with ``Theta`` the mean over the common
+    frames of the absolute angle difference of the velocity directions divided by pi (with
+    wrap-around, so in [0, 1]) and ``Lambda`` the mean of ``N(m_fast) (1 - m_slow / m_fast)``;
+    :data:`NO_COMMON_FRAME` (1000) where the two share no frame.
+    """
+    va = np.asarray(va, np.float64)
+    vb = np.asarray(vb, np.float64)
+    both = np.isfinite(va).all(axis=-1) & np.isfinite(vb).all(axis=-1)
+    n = both.sum(axis=-1)
+    a = np.where(both[..., None], va, 0.0)
+    b = np.where(both[..., None], vb, 0.0)
+    ang = np.abs(np.arctan2(a[..., 1], a[..., 0]) - np.arctan2(b[..., 1], b[..., 0]))
+    ang = np.minimum(ang, 2.0 * np.pi - ang) / np.pi
+    ma = np.hypot(a[..., 0], a[..., 1]) * frame_interval_s
+    mb = np.hypot(b[..., 0], b[..., 1]) * frame_interval_s
+    fast = np.maximum(ma, mb)
+    slow = np.minimum(ma, mb)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        sig = 1.0 / (1.0 + np.exp(p_px - fast))
+        lam = np.where(fast > 0, sig * (1.0 - slow / fast), 0.0)
+    nn = np.maximum(n, 1)
+    theta = np.where(both, ang, 0.0).sum(axis=-1) / nn
+    lam_m = np.where(both, lam, 0.0).sum(axis=-1) / nn
+    d = np.sqrt(theta**2 + lam_m**2)
+    return np.where(n > 0, d, NO_COMMON_FRAME)
+
+
+def frame_edges(
+    xy: np.ndarray, history: np.ndarray, dmax: float, radius_px: float, p_px: float = 3.0,
+    frame_interval_s: float = 0.04, min_speed_px_s: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Edges of one frame's graph: pairs closer than ``radius_px`` with ``D < dmax``.
+
+    Parameters
+    ----------
+    xy : (N, 2) positions of the features.
+    history : (N, W, 2) their velocity samples (px/s), NaN where not seen.
+    min_speed_px_s : float
+        Velocity samples slower than this count as not seen (not in the paper: the direction
+        of a feature that does not move relative to the scene is noise, and a small bias of the
+        camera-motion estimate would otherwise line up the directions of neighbouring static
+        features).
+
+    Returns
+    -------
+    i, j : (E,) int64 indices into ``xy`` with ``i < j``.
+    d : (E,) their dissimilarities.
+    """
+    if len(xy) < 2:
+        z = np.zeros(0, np.int64)
+        return z, z, np.zeros(0)
+    pairs = cKDTree(xy).query_pairs(r=float(radius_px), output_type="ndarray")
+    if len(pairs) == 0:
+        z = np.zeros(0, np.int64)
+        return z, z, np.zeros(0)
+    i, j = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
+    if min_speed_px_s > 0:
+        with np.errstate(invalid="ignore"):
+            slow = np.hypot(history[..., 0], history[..., 1]) < min_speed_px_s
+        history = np.where(slow[..., None], np.nan, history)
+    d = motion_dissimilarity(history[i], history[j], p_px, frame_interval_s)
+    keep = d < dmax
+    return i[keep], j[keep], d[keep]
+
+
+def assign_identities(
+    prev_labels: np.ndarray, comp: np.ndarray, next_id: int
+) -> tuple[np.ndarray, int]:
+    """Identities of this frame's clusters from the identities their features carried.
+
+    Parameters
+    ----------
+    prev_labels : (N,) int64 identity each feature carried (-1: none).
+    comp : (N,) int64 cluster (component) index of each feature this frame (-1: in no cluster).
+    next_id : int, the next free identity (identities are issued in increasing order, so a
+        smaller identity is an older one).
+
+    Returns
+    -------
+    cluster_ids : (C,) int64 identity of each component ``0 .. C-1`` (C = ``comp.max() + 1``).
+    next_id : the next free identity afterwards.
+
+    Notes
+    -----
+    Identities are handed out oldest first: each carried identity goes to the unclaimed
+    component holding most of its features (ties: the larger component, then the lower index).
+    So a merge keeps the oldest identity; a split leaves the identity with the part holding
+    most of its features, and the other parts, and components whose features carried none,
+    get new identities.
+    """
+    prev_labels = np.asarray(prev_labels, np.int64)
+    comp = np.asarray(comp, np.int64)
+    n_comp = int(comp.max()) + 1 if comp.size and comp.max() >= 0 else 0
+    ids = np.full(n_comp, -1, np.int64)
+    if n_comp == 0:
+        return ids, next_id
+    size = np.bincount(comp[comp >= 0], minlength=n_comp)
+    m = (comp >= 0) & (prev_labels >= 0)
+    if m.any():
+        lab, c = prev_labels[m], comp[m]
+        pairs, counts = np.unique(np.stack([lab, c], axis=1), axis=0, return_counts=True)
+        # oldest label first; within a label most features, then larger component, lower index
+        order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
+        done_labels: set[int] = set()
+        for k in order:
+            lab_k, c_k = int(pairs[k, 0]), int(pairs[k, 1])
+            if lab_k in done_labels or ids[c_k] >= 0:
+                continue
+            ids[c_k] = lab_k
+            done_labels.add(lab_k)
+    for c in np.flatnonzero(ids < 0):
+        ids[c] = next_id
+        next_id += 1
+    return ids, next_id
+
+
+class AffinityClusters:
+    """The affinity graph of the features and its clusters (paper B, step 3).
+
+    State is kept per storage slot (a feature's slot is stable over its life), in dense arrays.
+
+    Parameters
+    ----------
+    alpha : float
+        Weight added to a pair on re-association (an edge of the frame's graph) (paper: 3).
+    w_link : float
+        Weight at which a link forms (paper: 1); it breaks when the weight falls to 0.
+    w_cap : float
+        Largest weight (0: none).  Not in the paper; without one, a pair associated for a long
+        time would stay linked for as many frames after the objects separate.  The cap used is
+        at least ``w_link + alpha``.
+    min_features : int
+        Features a cluster needs (paper: 2).
+    label_memory_s : float
+        How long a feature remembers the identity of its cluster after leaving every cluster,
+        so that a cluster that dissolves for a moment comes back with its identity.
+    """
+
+    def __init__(
+        self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
+        label_memory_s: float = 2.0,
+    ) -> None:
+        if alpha <= 0 or w_link <= 0:
+            raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
+        self.alpha = float(alpha)
+        self.w_link = float(w_link)
+        self.w_cap = float(w_cap) if w_cap > 0 else np.inf
+        self.w_cap = max(self.w_cap, self.w_link + self.alpha)
+        self.min_features = max(2, int(min_features))
+        self.label_memory_s = float(label_memory_s)
+        self.reset()
+
+    def reset(self) -> None:
+        self._cap = 0
+        self._w = np.zeros((0, 0), np.float32)
+        self._linked = np.zeros((0, 0), bool)
+        self._fid = np.zeros(0, np.int64)
+        self._label = np.zeros(0, np.int64)
+        self._label_t = np.zeros(0)
+        self.next_id = 1
+        self.birth_s: dict[int, float] = {}
+
+    def _grow(self, need: int) -> None:
+        if need <= self._cap:
+            return
+        new = max(need, 2 * self._cap, 64)
+        w = np.zeros((new, new), np.float32)
+        w[: self._cap, : self._cap] = self._w
+        lk = np.zeros((new, new), bool)
+        lk[: self._cap, : self._cap] = self._linked
+        self._w, self._linked = w, lk
+        self._fid = np.r_[self._fid, np.full(new - self._cap, -1, np.int64)]
+        self._label = np.r_[self._label, np.full(new - self._cap, -1, np.int64)]
+        self._label_t = np.r_[self._label_t, np.full(new - self._cap, -np.inf)]
+        self._cap = new
+
+    def weights(self, slot_a: int, slot_b: int) -> float:
+        """Current affinity weight of two slots."""
+        return float(self._w[slot_a, slot_b])
+
+    def linked(self, slot_a: int, slot_b: int) -> bool:
+        """Whether two slots are linked."""
+        return bool(self._linked[slot_a, slot_b])
+
+    def step(
+        self,
+        slots: np.ndarray,
+        ids: np.ndarray,
+        edge_i: np.ndarray,
+        edge_j: np.ndarray,
+        t_s: float,
+        active: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Update the affinity graph with one frame's edges and return the clusters.
+
+        Parameters
+        ----------
+        slots : (N,) int storage slots of the features alive in this frame (features absent
+            here are forgotten).
+        ids : (N,) int64 their feature identities (a slot whose identity changed is a new feature).
+        edge_i, edge_j : (E,) int indices into ``slots`` of this frame's graph edges.
+        t_s : time of the frame (s).
+        active : (N,) bool, the features that may be in a cluster this frame (the stable
+            ones); all when None.  Inactive features keep and decay their weights.
+
+        Returns
+        -------
+        labels : (N,) int64 cluster identity of each feature (-1: in no cluster).
+        cluster_ids : (C,) int64 the identities of this frame's clusters, ascending.
+        """
+        slots = np.asarray(slots, np.int64)
+        ids = np.asarray(ids, np.int64)
+        n = len(slots)
+        if n:
+            self._grow(int(slots.max()) + 1)
+        present = np.zeros(self._cap, bool)
+        present[slots] = True
+        changed = np.zeros(self._cap, bool)
+        changed[slots] = self._fid[slots] != ids
+        gone = ~present & (self._fid >= 0)
+        reset = changed | gone
+        if reset.any():
+            self._w[reset, :] = 0.0
+            self._w[:, reset] = 0.0
+            self._linked[reset, :] = False
+            self._linked[:, reset] = False
+            self._label[reset] = -1
+            self._label_t[reset] = -np.inf
+            self._fid[gone] = -1
+        self._fid[slots] = ids
+        if n == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+
+        # affinity weights: +alpha on re-association, -1 otherwise, link hysteresis
+        ix = np.ix_(slots, slots)
+        w = self._w[ix] - 1.0
+        ei = np.asarray(edge_i, np.int64)
+        ej = np.asarray(edge_j, np.int64)
+        w[ei, ej] += 1.0 + self.alpha
+        w[ej, ei] += 1.0 + self.alpha
+        np.clip(w, 0.0, self.w_cap, out=w)
+        np.fill_diagonal(w, 0.0)
+        lk = (w >= self.w_link) | (self._linked[ix] & (w > 0))
+        self._w[ix] = w
+        self._linked[ix] = lk
+
+        # clusters: connected components of the links among the active features
+        act = np.ones(n, bool) if active is None else np.asarray(active, bool)
+        lk_act = lk & act[:, None] & act[None, :]
+        li, lj = np.nonzero(np.triu(lk_act, 1))
+        comp = np.full(n, -1, np.int64)
+        if len(li):
+            g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(n, n))
+            _, cc = connected_components(g, directed=False)
+            size = np.bincount(cc)
+            big = size[cc] >= self.min_features
+            # renumber the components that are clusters to 0..C-1
+            uniq, inv = np.unique(cc[big], return_inverse=True)
+            comp[big] = inv
+
+        lab = self._label[slots].copy()
+        lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
+        cids, self.next_id = assign_identities(lab, comp, self.next_id)
+        for c in cids:
+            self.birth_s.setdefault(int(c), float(t_s))
+        labels = np.full(n, -1, np.int64)
+        labels[comp >= 0] = cids[comp[comp >= 0]]
+        member = comp >= 0
+        self._label[slots[member]] = labels[member]
+        self._label_t[slots[member]] = t_s
+        live = set(int(c) for c in cids)
+        # forget the birth of identities that no feature remembers any more
+        if len(self.birth_s) > 4 * max(len(live), 16):
+            valid = self._label[(self._label >= 0) & (t_s - self._label_t <= self.label_memory_s)]
+            keep = live | set(int(x) for x in np.unique(valid))
+            self.birth_s = {k: v for k, v in self.birth_s.items() if k in keep}
+        return labels, np.sort(cids)
+
+
+@dataclass(frozen=True)
+class ClusterParams:
+    """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px)."""
+
+    dmax: float = 0.31
+    alpha: float = 3.0
+    w_link: float = 1.0
+    radius_px: float = 50.0
+    p_px: float = 3.0
+    frame_interval_s: float = 0.04
+    min_speed_px_s: float = 5.0
+    w_cap: float = 15.0
+    min_features: int = 2
+    label_memory_s: float = 2.0
+    confirm_s: float = 0.4
+    box_pad: float = 0.5
+
+
+class FeatureClusterer:
+    """Clusters of stable features as tracked objects (the tracking half of paper B).
+
+    Takes the :class:`~seawatch.detect.features.FeatureSnapshot` of each frame and returns the
+    clusters as detections and tracks.  Kept apart from the feature extraction so that a
+    parameter study can run the clustering many times on the features extracted once.
+
+    Parameters
+    ----------
+    params : ClusterParams
+        ``dmax``, ``alpha``, ``w_link``, ``radius_px`` (the paper's parameters), ``p_px`` and
+        ``frame_interval_s`` (the magnitude sigmoid, see :func:`motion_dissimilarity`),
+        ``min_speed_px_s`` (see :func:`frame_edges`),
+        ``w_cap``, ``min_features``, ``label_memory_s`` (see :class:`AffinityClusters`),
+        ``confirm_s`` (age from which a cluster is a confirmed track), ``box_pad`` (the box is
+        the features' extent grown by ``box_pad`` times each keypoint's radius).
+    """
+
+    def __init__(self, params: ClusterParams | None = None, source: str = "stable_features",
+                 camera_id: str = "cam0") -> None:
+        self.params = params or ClusterParams()
+        self.source = source
+        self.camera_id = camera_id
+        p = self.params
+        self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s)
+        self.last_labels = np.zeros(0, np.int64)
+
+    def reset(self) -> None:
+        self.graph.reset()
+
+    def update(self, snap: FeatureSnapshot) -> tuple[Detections, Tracks]:
+        """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters."""
+        p = self.params
+        st = np.flatnonzero(snap.stable)
+        ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
+                                p.min_speed_px_s)
+        # indices into the snapshot
+        labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
+        self.last_labels = labels
+        return self._outputs(snap, labels, cids)
+
+    def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
+        p = self.params
+        n = len(cids)
+        t, fi = snap.t_s, snap.frame_index
+        if n == 0:
+            return (Detections.empty(t, fi, self.source, self.camera_id),
+                    Tracks.empty(t, fi, self.source, self.camera_id))
+        m = labels >= 0
+        k = np.searchsorted(cids, labels[m])
+        xy = snap.xy[m]
+        r = p.box_pad * 0.5 * snap.size_px[m]
+        x0 = np.full(n, np.inf)
+        y0 = np.full(n, np.inf)
+        x1 = np.full(n, -np.inf)
+        y1 = np.full(n, -np.inf)
+        np.minimum.at(x0, k, xy[:, 0] - r)
+        np.minimum.at(y0, k, xy[:, 1] - r)
+        np.maximum.at(x1, k, xy[:, 0] + r)
+        np.maximum.at(y1, k, xy[:, 1] + r)
+        if snap.shape is not None:
+            h, w = snap.shape
+            x0, x1 = np.clip(x0, 0, w), np.clip(x1, 0, w)
+            y0, y1 = np.clip(y0, 0, h), np.clip(y1, 0, h)
+        boxes = np.stack([x0, y0, x1 - x0, y1 - y0], axis=1)
+        count = np.bincount(k, minlength=n)
+        iv = snap.image_velocity[m]
+        ok = np.isfinite(iv).all(axis=1)
+        vsum = np.zeros((n, 2))
+        np.add.at(vsum, k[ok], iv[ok])
+        vn = np.bincount(k[ok], minlength=n)
+        vel = np.where(vn[:, None] > 0, vsum / np.maximum(vn, 1)[:, None], 0.0)
+        births = np.array([self.graph.birth_s.get(int(c), t) for c in cids])
+        ages = t - births
+        states = np.where(ages >= p.confirm_s - 1e-9, int(TrackState.CONFIRMED), int(TrackState.TENTATIVE))
+        scores = 1.0 - np.exp(-count / 5.0)
+        dets = Detections(t, fi, boxes, scores, self.source, self.camera_id)
+        tracks = Tracks(t, fi, cids, boxes, vel, states, ages, self.source, self.camera_id)
+        return dets, tracks
+
+
+class StableFeatureTracker:
+    """Detector-tracker stage of paper B: frames in, tracked feature clusters out.
+
+    Parameters
+    ----------
+    extractor : StableFeatureExtractor, optional
+        The feature stage (default parameters when None).
+    params : ClusterParams, optional
+        The clustering parameters (the paper's defaults when None).
+    report_tentative : bool
+        Whether :meth:`process` also returns clusters younger than ``params.confirm_s``.
+
+    Examples
+    --------
+    >>> trk = StableFeatureTracker()                       # doctest: +SKIP
+    >>> dets, tracks = trk.process(frame)                   # doctest: +SKIP
+    """
+
+    name = "stable_features"
+
+    def __init__(self, extractor: StableFeatureExtractor | None = None,
+                 params: ClusterParams | None = None, report_tentative: bool = False) -> None:
+        self.extractor = extractor or StableFeatureExtractor()
+        self.clusterer = FeatureClusterer(params)
+        self.report_tentative = bool(report_tentative)
+        self.last_snapshot: FeatureSnapshot | None = None
+
+    @classmethod
+    def from_settings(cls, settings) -> "StableFeatureTracker":
+        """Build from :class:`seawatch.config.TrackerSettings` (its ``sf_*`` fields)."""
+        ext = StableFeatureExtractor(max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)))
+        params = ClusterParams(
+            dmax=float(getattr(settings, "sf_dmax", 0.31)),
+            alpha=float(getattr(settings, "sf_alpha", 3.0)),
+            w_link=float(getattr(settings, "sf_w_link", 1.0)),
+            radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
+        )
+        return cls(ext, params)
+
+    def reset(self) -> None:
+        self.extractor.reset()
+        self.clusterer.reset()
+
+    def process(self, frame: Frame) -> tuple[Detections, Tracks]:
+        """Detect and track in one frame.
+
+        Raises
+        ------
+        ValueError
+            When the frame's image is not an image (the message names the frame).
+        """
+        try:
+            snap = self.extractor.process(frame.image, frame.t_s, frame.index)
+        except ValueError as exc:
+            raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
+        self.last_snapshot = snap
+        self.clusterer.camera_id = frame.camera_id
+        dets, tracks = self.clusterer.update(snap)
+        if not self.report_tentative and len(tracks):
+            keep = tracks.states != int(TrackState.TENTATIVE)
+            tracks = tracks.subset(keep)
+            dets = dets.subset(keep)
+        return dets, tracks

@@ -1,0 +1,186 @@
+"""Stable features (paper B, step 1) and the whole tracker on a short synthetic pan and zoom."""
+
+import cv2
+import numpy as np
+import pytest
+
+from seawatch.config import load_config
+from seawatch.detect.features import (
+    StableFeatureExtractor,
+    fit_zoom_pan,
+    match_quality,
+    select_keypoints,
+    to_grey_u8,
+)
+from seawatch.track.feature_clusters import StableFeatureTracker
+from seawatch.types import DetectorTracker, Frame
+
+FPS = 25.0
+W, H = 320, 240
+
+
+# --------------------------------------------------------------- synthetic scene
+def _world(rng, w=1400, h=500):
+    img = np.empty((h, w), np.float32)
+    img[:200] = 200 - 0.1 * np.arange(200)[:, None]  # sky
+    img[200:260] = 90  # coast: boxes of random grey
+    for _ in range(260):
+        x, y, s = rng.integers(0, w), rng.integers(200, 260), rng.integers(3, 12)
+        img[max(200, y - s): y + s, x: x + s] = rng.uniform(20, 230)
+    img[260:] = 120  # sea
+    return img
+
+
+def _boat(rng, bw, bh):
+    b = np.full((bh, bw), 40, np.float32)
+    for _ in range(14):
+        x, y = rng.integers(0, bw - 6), rng.integers(0, bh - 6)
+        b[y: y + rng.integers(3, 7), x: x + rng.integers(3, 8)] = rng.uniform(150, 255)
+    return b
+
+
+def synthetic_pan(n_frames=90, seed=0, pan_px_s=60.0, zoom_per_s=0.1):
+    """A camera panning right and zooming in over a coast, two textured boats crossing.
+
+    Yields ``(t_s, image, boxes)``, boxes a dict ``boat -> (x, y, w, h)`` (visible part).
+    """
+    rng = np.random.default_rng(seed)
+    world = _world(rng)
+    boats = [(_boat(rng, 56, 22), 420.0, 300.0, 40.0), (_boat(rng, 70, 26), 700.0, 330.0, -30.0)]
+    for i in range(n_frames):
+        t = i / FPS
+        canvas = world.copy()
+        canvas[260:] += rng.normal(0, 4, (canvas.shape[0] - 260, canvas.shape[1])).astype(np.float32)
+        placed = []
+        for k, (patch, x0, y0, vx) in enumerate(boats):
+            xi, yi = int(round(x0 + vx * t)), int(round(y0))
+            canvas[yi: yi + patch.shape[0], xi: xi + patch.shape[1]] = patch
+            placed.append((k, xi, yi, patch.shape[1], patch.shape[0]))
+        cx, cy, z = 540 + pan_px_s * t, 290.0, 1.0 + zoom_per_s * t
+        m = np.array([[z, 0, W / 2 - z * cx], [0, z, H / 2 - z * cy]])
+        img = np.clip(cv2.warpAffine(canvas, m, (W, H), flags=cv2.INTER_LINEAR), 0, 255).astype(np.uint8)
+        boxes = {}
+        for k, xi, yi, pw, ph in placed:
+            x0, y0 = z * xi + m[0, 2], z * yi + m[1, 2]
+            x1, y1 = min(x0 + z * pw, W), min(y0 + z * ph, H)
+            x0, y0 = max(x0, 0), max(y0, 0)
+            if x1 - x0 > 0 and y1 - y0 > 0:
+                boxes[k] = (x0, y0, x1 - x0, y1 - y0)
+        yield t, img, boxes
+
+
+def _iou(a, b):
+    ax1, ay1, bx1, by1 = a[0] + a[2], a[1] + a[3], b[0] + b[2], b[1] + b[3]
+    iw = max(0.0, min(ax1, bx1) - max(a[0], b[0]))
+    ih = max(0.0, min(ay1, by1) - max(a[1], b[1]))
+    inter = iw * ih
+    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
+
+
+# -------------------------------------------------------------------- helpers
+def test_to_grey_handles_eo_and_ir():
+    bgr = np.zeros((4, 5, 3), np.uint8)
+    bgr[..., 2] = 255
+    assert to_grey_u8(bgr).shape == (4, 5)
+    ir = np.linspace(1000, 5000, 20 * 30).reshape(20, 30).astype(np.uint16)
+    g = to_grey_u8(ir)
+    assert g.dtype == np.uint8 and g.min() == 0 and g.max() == 255
+    with pytest.raises(ValueError, match="not an image"):
+        to_grey_u8(np.zeros((4, 5, 2), np.uint8))
+    with pytest.raises(ValueError, match="not an image"):
+        to_grey_u8(np.zeros((0,), np.uint8))
+
+
+def test_select_keypoints_spreads_over_the_grid():
+    rng = np.random.default_rng(0)
+    # 100 strong keypoints in the left cell, 10 weak ones in the right cell
+    xy = np.r_[rng.uniform(0, 10, (100, 2)), rng.uniform([90, 0], [100, 10], (10, 2))]
+    resp = np.r_[np.full(100, 100.0), np.full(10, 1.0)]
+    keep = select_keypoints(xy, resp, (10, 100), max_keypoints=20, grid_cells=(2, 1))
+    assert len(keep) == 20
+    assert (keep >= 100).sum() == 10  # every weak keypoint of the other cell kept
+    assert len(select_keypoints(xy, resp, (10, 100), 0)) == 110
+
+
+def test_match_quality():
+    q = match_quality(np.array([1.0, 4.0, 0.0]), np.array([4.0, 4.0, 0.0]))
+    assert q.tolist() == pytest.approx([0.5, 0.0, 1.0])
+
+
+def test_fit_zoom_pan_recovers_camera_motion_among_movers():
+    rng = np.random.default_rng(1)
+    src = rng.uniform(0, 320, (80, 2))
+    h_true = np.array([[1.01, 0, -3.0], [0, 1.01, 0.5], [0, 0, 1]])
+    dst = src * 1.01 + [-3.0, 0.5] + rng.normal(0, 0.1, src.shape)
+    dst[:25] += [1.5, 0.0]  # a third of the points on a boat moving 1.5 px/frame
+    h, inl = fit_zoom_pan(src, dst, threshold_px=0.5)
+    corners = np.array([[0, 0, 1], [320, 0, 1], [0, 240, 1], [320, 240, 1]], float)
+    assert np.abs(corners @ h.T - corners @ h_true.T).max() < 0.1  # px
+    assert not inl[:25].any() and inl[25:].mean() > 0.9
+
+
+# ------------------------------------------------------------------ extractor
+def test_confidence_counters_on_a_still_scene():
+    rng = np.random.default_rng(2)
+    img = (rng.random((120, 160)) > 0.97).astype(np.uint8) * 200
+    img = cv2.GaussianBlur(img, (0, 0), 1.5) * 3
+    ext = StableFeatureExtractor(stable_confidence=5, max_confidence=10)
+    first = ext.process(img, 0.0)
+    assert len(first) > 10 and (first.confidence == 1).all() and not first.stable.any()
+    for k in range(1, 5):
+        snap = ext.process(img, k / FPS)
+    # born at 1, +1 per match: stable (5) on the fifth frame
+    assert snap.stable.mean() > 0.9
+    assert np.allclose(snap.homography, np.eye(3), atol=1e-3)
+    # the features vanish: -1 per frame from at most 10, so all gone within 10 frames
+    blank = np.full_like(img, 50)
+    for k in range(5, 20):
+        snap = ext.process(blank, k / FPS)
+        if len(snap) == 0:
+            break
+    assert len(snap) == 0 and k <= 5 + 10
+
+
+def test_extractor_rejects_bad_frames_with_the_frame_named():
+    trk = StableFeatureTracker()
+    with pytest.raises(ValueError, match="frame 7"):
+        trk.process(Frame(np.zeros((3,), np.uint8), 0.28, 7))
+
+
+# -------------------------------------------------------------------- tracker
+def test_tracker_is_a_detector_tracker_and_builds_from_config():
+    cfg = load_config(overrides=["tracker.sf_dmax=0.5", "tracker.sf_max_keypoints=150"])
+    trk = StableFeatureTracker.from_settings(cfg.tracker)
+    assert isinstance(trk, DetectorTracker) and trk.name == "stable_features"
+    assert trk.clusterer.params.dmax == 0.5 and trk.extractor.max_keypoints == 150
+
+
+def test_tracker_on_synthetic_pan_and_zoom():
+    trk = StableFeatureTracker()
+    owner = {0: [], 1: []}  # track id that covers each boat, per frame
+    false_frames = 0
+    ious = []
+    n_gt = 0
+    for i, (t, img, boxes) in enumerate(synthetic_pan()):
+        dets, tracks = trk.process(Frame(img, t, i))
+        assert len(dets) == len(tracks)
+        for k, box in boxes.items():
+            n_gt += 1
+            if not len(tracks):
+                continue
+            ov = np.array([_iou(box, b) for b in tracks.boxes])
+            j = int(np.argmax(ov))
+            if ov[j] > 0.3:
+                owner[k].append(int(tracks.ids[j]))
+                ious.append(ov[j])
+        touching = [any(_iou(b, g) > 0 for g in boxes.values()) for b in tracks.boxes]
+        false_frames += int(not all(touching))
+    # the camera motion itself never makes an object of the static coast
+    assert false_frames <= 2
+    # each boat is found (IoU > 0.3) in most frames; it takes about 0.5 s for the features to
+    # become stable and linked, and a boat half out of the image is lost
+    assert len(owner[0]) + len(owner[1]) >= 0.6 * n_gt
+    # ... and keeps one identity through the pan and the zoom; the two identities differ
+    assert len(set(owner[0])) == 1 and len(set(owner[1])) == 1
+    assert owner[0][0] != owner[1][0]
+    assert np.mean(ious) > 0.6
