@@ -82,6 +82,13 @@ class TrackerSettings:
     colour_max_dist: float = 0.35  # HSV Bhattacharyya distance of a colour match
     reid_memory_s: float = 10.0  # how long a lost track can be re-identified
     ego_motion: str = "none"  # none | flow | ptz (moving cameras)
+    # stable_features (paper B, see docs/stable_features.md)
+    sf_dmax: float = 0.31  # largest motion dissimilarity of a graph edge
+    sf_alpha: float = 3.0  # affinity weight gained on re-association
+    sf_w_link: float = 1.0  # affinity weight at which a link forms
+    sf_radius_px: float = 50.0  # largest distance of a graph edge
+    sf_max_keypoints: int = 200  # keypoints described per frame (SIFT cost)
+    sf_min_speed_px_s: float = 5.0  # slower feature velocities count as static
 
 
 @dataclass(frozen=True)

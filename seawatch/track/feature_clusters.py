@@ -481,6 +481,7 @@ class StableFeatureTracker:
             alpha=float(getattr(settings, "sf_alpha", 3.0)),
             w_link=float(getattr(settings, "sf_w_link", 1.0)),
             radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
+            min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 5.0)),
         )
         return cls(ext, params)
 
