@@ -1,0 +1,939 @@
+"""PTracking: the multi-clustered particle filter of paper A, local layer (one camera).
+
+After Bloisi et al., "Enhancing automatic maritime surveillance systems with visual information"
+(IEEE T-ITS), whose tracker is PTracking (Previtali and Iocchi): a particle filter whose
+particle cloud holds every vessel at once, split into targets by KClusterize, with group
+tracking and colour re-identification through occlusions.
+
+The loop, per frame (:meth:`PTrackingTracker.update`):
+
+1. **Ego-motion** (optional): a moving camera's image motion since the last frame, from the PTZ
+   state and the camera model or from sparse optical flow, is applied to every particle and
+   track.
+2. **Predict**: each track moves on its constant velocity; its particles with it, plus jitter.
+3. **Observe**: the observation of a box is its bottom centre.  A share of the particles is
+   drawn around the observations (so new vessels are found), and every particle is weighed by
+   ``sum_j exp(-|p - z_j| / sigma)``.
+4. **KClusterize** the weighted cloud into a Gaussian mixture (:mod:`.kclusterize`).
+5. **Groups** (:mod:`.group`): clusters inside a group's region belong to the group; its members
+   coast on their velocities.  When the members' predicted boxes separate, the clusters that
+   come out are given to the members by the Bhattacharyya distance of their HSV histograms.
+6. **Associate** the other clusters with tracks (Hungarian on the distance to the predicted
+   position, gated); update matched tracks (position = cluster mean, velocity = exponentially
+   weighted regression over the recent positions, box size smoothed).
+7. **Births**: a cluster with an observation and no track starts a tentative track; it is
+   confirmed after ``confirm_hits`` sightings within ``confirm_window_s``; at confirmation it is
+   first re-identified against recently lost tracks (the paper's tests: same direction, similar
+   speed, closeness, and the colour model) before a new number is given.
+8. **Delete** tentative tracks unseen for ``confirm_window_s``, confirmed ones unseen for
+   ``max_coast_s`` (group members are kept while their group lasts).
+9. **Form groups** of confirmed tracks whose boxes, shrunk to 0.8, overlap; save their colours.
+10. **Resample** each track's particles (systematic, per cluster) to its share of the budget.
+
+Every time parameter is in seconds; pixel parameters are given for a 704-pixel-wide image and
+scaled with the width of the frames (or ``image_width_px``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from seawatch.track.group import (
+    HSV_BINS,
+    Group,
+    colour_distance_matrix,
+    hsv_histograms,
+    match_by_colour,
+    overlap_components,
+)
+from seawatch.track.kclusterize import kclusterize
+from seawatch.track.particle import (
+    kernel_likelihood,
+    predict_particles,
+    resample_groups,
+    sample_gaussians,
+)
+from seawatch.types import Detections, Frame, Tracks, TrackState
+
+__all__ = ["PTrackingTracker", "REFERENCE_WIDTH_PX", "BELIEF_DTYPE"]
+
+REFERENCE_WIDTH_PX = 704.0  # the paper's image width; pixel parameters are given for it
+
+#: One published belief of a sensor (local layer -> global layer): a Gaussian per confirmed track.
+BELIEF_DTYPE = np.dtype(
+    [
+        ("sensor", "U32"),
+        ("id", np.int64),
+        ("t_s", np.float64),
+        ("weight", np.float64),
+        ("mean", np.float64, (2,)),
+        ("sigma", np.float64, (2,)),
+        ("velocity", np.float64, (2,)),
+    ]
+)
+
+_NB = int(sum(HSV_BINS))
+
+
+class _Bank:
+    """Track state in parallel arrays (one row per track, rows in ascending ``uid``)."""
+
+    FIELDS = {
+        "uid": (np.int64, ()),  # internal identity (particle labels)
+        "pid": (np.int64, ()),  # public id, -1 while tentative
+        "pos": (np.float64, (2,)),  # bottom centre, px
+        "vel": (np.float64, (2,)),  # px/s
+        "size": (np.float64, (2,)),  # w, h px
+        "sigma": (np.float64, (2,)),  # cluster spread, px
+        "weight": (np.float64, ()),  # cluster weight
+        "born_t": (np.float64, ()),
+        "last_t": (np.float64, ()),  # start of the current coasting period (deletion clock)
+        "obs_t": (np.float64, ()),  # time of the last observation
+        "obs_pos": (np.float64, (2,)),  # position at the last observation
+        "hits": (np.int64, ()),
+        "resid_var": (np.float64, ()),  # smoothed squared innovation per axis, px^2
+        "confirmed": (np.bool_, ()),
+        "updated": (np.bool_, ()),  # updated in this frame
+        "reg": (np.float64, (7,)),  # S_w, S_t, S_tt, S_x, S_y, S_tx, S_ty (time origin = now)
+        "hist": (np.float64, (_NB,)),  # clean colour model
+        "has_hist": (np.bool_, ()),
+        "hist_t": (np.float64, ()),
+        "group": (np.int64, ()),  # index into the tracker's groups, -1 when none
+    }
+
+    def __init__(self, confirm_hits: int) -> None:
+        self.k = max(int(confirm_hits), 1)
+        for name, (dt, shape) in self.FIELDS.items():
+            setattr(self, name, np.zeros((0, *shape), dt))
+        self.hit_t = np.zeros((0, self.k))  # the last k sighting times (ring, oldest first)
+
+    def __len__(self) -> int:
+        return len(self.uid)
+
+    def append(self, n: int) -> np.ndarray:
+        """Append ``n`` zeroed rows; return their row indices."""
+        start = len(self.uid)
+        for name, (dt, shape) in self.FIELDS.items():
+            setattr(self, name, np.concatenate([getattr(self, name), np.zeros((n, *shape), dt)]))
+        self.hit_t = np.concatenate([self.hit_t, np.full((n, self.k), -np.inf)])
+        self.group[start:] = -1
+        self.pid[start:] = -1
+        return np.arange(start, start + n)
+
+    def keep(self, mask: np.ndarray) -> None:
+        for name in self.FIELDS:
+            setattr(self, name, getattr(self, name)[mask])
+        self.hit_t = self.hit_t[mask]
+
+    def rows_of(self, uids: np.ndarray) -> np.ndarray:
+        """Row of each uid, -1 when the uid is not alive."""
+        if len(self.uid) == 0:
+            return np.full(len(uids), -1, np.int64)
+        r = np.searchsorted(self.uid, uids)
+        r = np.clip(r, 0, len(self.uid) - 1)
+        return np.where(self.uid[r] == uids, r, -1)
+
+    def boxes(self, rows=None) -> np.ndarray:
+        pos = self.pos if rows is None else self.pos[rows]
+        size = self.size if rows is None else self.size[rows]
+        return np.column_stack([pos[:, 0] - size[:, 0] / 2, pos[:, 1] - size[:, 1], size[:, 0], size[:, 1]])
+
+
+def _bottom_centres(boxes: np.ndarray) -> np.ndarray:
+    return np.column_stack([boxes[:, 0] + boxes[:, 2] / 2, boxes[:, 1] + boxes[:, 3]])
+
+
+def _box_from(pos: np.ndarray, size: np.ndarray) -> np.ndarray:
+    return np.column_stack([pos[:, 0] - size[:, 0] / 2, pos[:, 1] - size[:, 1], size[:, 0], size[:, 1]])
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na == 0 or nb == 0:
+        return 180.0
+    c = float(np.dot(a, b) / (na * nb))
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+class PTrackingTracker:
+    """PTracking local layer: multi-clustered particle filter with group tracking (paper A).
+
+    Parameters
+    ----------
+    num_particles : int
+        Particle budget (paper: 500).  A share ``inject_frac`` is drawn around the observations
+        each frame, the rest is split evenly among the tracks (at least ``min_particles_per_track``
+        each).
+    delta_px : float
+        KClusterize radius at a 704-pixel-wide image (paper: 20 px), scaled with the image width.
+    kernel_sigma_px, inject_sigma_px : float
+        Scale of the ``exp(-d / sigma)`` likelihood kernel, and spread of the particles drawn
+        around each observation (px at 704 wide).
+    process_noise_px_s : float
+        Particle jitter per second of prediction (px/s at 704 wide; at least 0.5 px per step).
+    inject_frac : float
+        Share of the budget drawn around the observations each frame.
+    min_particles_per_track : int
+    gate_px : float
+        Largest distance from a track's predicted position to a cluster it is associated with
+        (px at 704 wide; default ``3 * delta_px``).
+    confirm_hits : int
+        Sightings a tentative track needs ...
+    confirm_window_s : float
+        ... within this time to be confirmed; a tentative track unseen this long is deleted.
+    max_coast_s : float
+        A confirmed track without an observation for this long is deleted (and remembered for
+        re-identification for ``reid_memory_s``).
+    velocity_tau_s : float
+        Time constant of the exponentially weighted regression that gives each track's velocity.
+    size_tau_s : float
+        Time constant of the smoothing of the box size.
+    group_shrink : float
+        Boxes shrunk to this fraction of their size that overlap form a group (paper: 0.8).
+    colour_max_dist : float
+        Bhattacharyya distance below which two colour models match (paper: 0.35).
+    group_max_s : float
+        A group lasting longer than this is dissolved (its members then re-identified).
+    hist_interval_s : float
+        How often an isolated confirmed track refreshes its colour model.
+    reid_memory_s : float
+        How long a lost track can be re-identified.
+    reid_angle_deg, reid_speed_ratio : float
+        The paper's association tests against a lost track: the displacement since it was lost
+        must point along its velocity (angle below ``reid_angle_deg``) at a speed within
+        ``reid_speed_ratio`` (relative) of its speed.
+    min_speed_px_s : float
+        Below this speed (px/s at 704 wide) a track counts as still and only closeness is tested.
+    ego_motion : {"none", "flow", "ptz"}
+        Compensate a moving camera: from sparse optical flow between frames, or from the frames'
+        PTZ states through ``camera`` (a :class:`seawatch.camera.CameraModel`).
+    camera : CameraModel, optional
+        Needed by ``ego_motion="ptz"``.
+    image_width_px : float
+        Image width used to scale the pixel parameters until a frame is seen (0: 704).
+    output_tentative : bool
+        Also output tentative tracks (with negative, provisional ids).
+    seed : int
+        Seed of the particle filter's random numbers (the same seed and input give the same
+        tracks).
+    """
+
+    name = "ptracking"
+
+    def __init__(
+        self,
+        *,
+        num_particles: int = 500,
+        delta_px: float = 20.0,
+        kernel_sigma_px: float = 5.0,
+        inject_sigma_px: float = 3.0,
+        process_noise_px_s: float = 20.0,
+        inject_frac: float = 0.3,
+        min_particles_per_track: int = 12,
+        gate_px: float = 0.0,
+        confirm_hits: int = 3,
+        confirm_window_s: float = 1.0,
+        max_coast_s: float = 2.0,
+        velocity_tau_s: float = 1.0,
+        size_tau_s: float = 0.3,
+        group_shrink: float = 0.8,
+        colour_max_dist: float = 0.35,
+        group_max_s: float = 15.0,
+        hist_interval_s: float = 0.5,
+        reid_memory_s: float = 10.0,
+        reid_angle_deg: float = 10.0,
+        reid_speed_ratio: float = 0.5,
+        min_speed_px_s: float = 5.0,
+        ego_motion: str = "none",
+        camera=None,
+        image_width_px: float = 0.0,
+        output_tentative: bool = False,
+        seed: int = 0,
+    ) -> None:
+        if num_particles < 10:
+            raise ValueError(f"PTrackingTracker: num_particles must be >= 10, got {num_particles}")
+        if confirm_hits < 1:
+            raise ValueError(f"PTrackingTracker: confirm_hits must be >= 1, got {confirm_hits}")
+        for nm, v in (("confirm_window_s", confirm_window_s), ("max_coast_s", max_coast_s),
+                      ("velocity_tau_s", velocity_tau_s), ("size_tau_s", size_tau_s),
+                      ("group_max_s", group_max_s), ("reid_memory_s", reid_memory_s)):
+            if not v >= 0:
+                raise ValueError(f"PTrackingTracker: {nm} must be >= 0 seconds, got {v}")
+        if not delta_px > 0 or not kernel_sigma_px > 0 or not inject_sigma_px > 0:
+            raise ValueError("PTrackingTracker: delta_px, kernel_sigma_px and inject_sigma_px must be > 0")
+        if not 0 < inject_frac < 1:
+            raise ValueError(f"PTrackingTracker: inject_frac must be in (0, 1), got {inject_frac}")
+        if ego_motion not in ("none", "flow", "ptz"):
+            raise ValueError(f"PTrackingTracker: ego_motion must be none, flow or ptz, got {ego_motion!r}")
+        if ego_motion == "ptz" and camera is None:
+            raise ValueError("PTrackingTracker: ego_motion='ptz' needs a camera model (camera=...)")
+        self.num_particles = int(num_particles)
+        self.delta_px = float(delta_px)
+        self.kernel_sigma_px = float(kernel_sigma_px)
+        self.inject_sigma_px = float(inject_sigma_px)
+        self.process_noise_px_s = float(process_noise_px_s)
+        self.inject_frac = float(inject_frac)
+        self.min_particles_per_track = int(min_particles_per_track)
+        self.gate_px = float(gate_px) if gate_px > 0 else 3.0 * self.delta_px
+        self.confirm_hits = int(confirm_hits)
+        self.confirm_window_s = float(confirm_window_s)
+        self.max_coast_s = float(max_coast_s)
+        self.velocity_tau_s = float(velocity_tau_s)
+        self.size_tau_s = float(size_tau_s)
+        self.group_shrink = float(group_shrink)
+        self.colour_max_dist = float(colour_max_dist)
+        self.group_max_s = float(group_max_s)
+        self.hist_interval_s = float(hist_interval_s)
+        self.reid_memory_s = float(reid_memory_s)
+        self.reid_angle_deg = float(reid_angle_deg)
+        self.reid_speed_ratio = float(reid_speed_ratio)
+        self.min_speed_px_s = float(min_speed_px_s)
+        self.ego_motion = ego_motion
+        self.camera = camera
+        self.image_width_px = float(image_width_px)
+        self.output_tentative = bool(output_tentative)
+        self.seed = int(seed)
+        self.reset()
+
+    @classmethod
+    def from_config(cls, config, *, fps: float | None = None, camera=None) -> "PTrackingTracker":
+        """Build from a :class:`seawatch.config.Config` (its ``[tracker]`` section)."""
+        t = config.tracker
+        kw = dict(
+            num_particles=t.num_particles,
+            confirm_hits=t.confirm_hits,
+            confirm_window_s=t.confirm_window_s,
+            max_coast_s=t.max_coast_s,
+            seed=t.seed,
+        )
+        for name in ("delta_px", "group_shrink", "colour_max_dist", "reid_memory_s", "ego_motion"):
+            if hasattr(t, name):
+                kw[name] = getattr(t, name)
+        if kw.get("ego_motion") == "ptz" and camera is None:
+            kw["ego_motion"] = "none"
+        return cls(camera=camera, **kw)
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Forget every track, particle and lost track (ids keep counting up)."""
+        self.rng = np.random.default_rng(self.seed)
+        self.bank = _Bank(self.confirm_hits)
+        self.particles = np.zeros((0, 2))
+        self.labels = np.zeros(0, np.int64)  # uid of each particle's track, -1 none
+        self.groups: list[Group | None] = []
+        self.lost: list[dict] = []
+        self._t: float | None = None
+        self._dt = 0.0  # latest frame interval
+        self._scale = (self.image_width_px or REFERENCE_WIDTH_PX) / REFERENCE_WIDTH_PX
+        self._img_size: tuple[int, int] | None = None
+        self._prev_grey: np.ndarray | None = None
+        self._prev_ptz = None
+        self._frame: Frame | None = None
+        if not hasattr(self, "_next_uid"):
+            self._next_uid = 1
+            self._next_pid = 1
+        self.n_rejected = 0  # detections rejected as malformed (non-finite, non-positive size)
+
+    def _px(self, v: float) -> float:
+        return v * self._scale
+
+    # ------------------------------------------------------------------ ego-motion
+    def _ego_affine(self, frame: Frame) -> np.ndarray | None:
+        """2x3 affine taking last frame's pixels to this frame's, or None."""
+        if self.ego_motion == "ptz":
+            ptz, prev = frame.ptz, self._prev_ptz
+            self._prev_ptz = ptz
+            if ptz is None or prev is None or (
+                ptz.pan_deg == prev.pan_deg and ptz.tilt_deg == prev.tilt_deg and ptz.zoom == prev.zoom
+            ):
+                return None
+            h, w = frame.shape
+            cam = self.camera
+            if cam.intrinsics.width != w or cam.intrinsics.height != h:
+                cam = cam.with_intrinsics(cam.intrinsics.scaled_to(w, h))
+            c0, c1 = cam.with_ptz(prev), cam.with_ptz(ptz)
+            gu, gv = np.meshgrid(np.linspace(0, w - 1, 5), np.linspace(0, h - 1, 5))
+            az, el = c0.pixel_to_azel(gu.ravel(), gv.ravel())
+            u, v, ok = c1.azel_to_pixel(az, el)
+            if ok.sum() < 3:
+                return None
+            src = np.column_stack([gu.ravel(), gv.ravel()])[ok]
+            dst = np.column_stack([u, v])[ok]
+            X = np.column_stack([src, np.ones(len(src))])
+            A, *_ = np.linalg.lstsq(X, dst, rcond=None)
+            return A.T
+        if self.ego_motion == "flow":
+            img = frame.image
+            grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+            if grey.dtype != np.uint8:
+                grey = cv2.normalize(grey, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+            f = min(1.0, 320.0 / grey.shape[1])
+            small = cv2.resize(grey, None, fx=f, fy=f, interpolation=cv2.INTER_AREA) if f < 1 else grey
+            prev, self._prev_grey = self._prev_grey, small
+            if prev is None or prev.shape != small.shape:
+                return None
+            pts = cv2.goodFeaturesToTrack(prev, maxCorners=200, qualityLevel=0.01, minDistance=8)
+            if pts is None or len(pts) < 8:
+                return None
+            nxt, st, _ = cv2.calcOpticalFlowPyrLK(prev, small, pts, None, winSize=(21, 21), maxLevel=3)
+            ok = st.ravel() == 1
+            if ok.sum() < 8:
+                return None
+            M, inl = cv2.estimateAffinePartial2D(pts[ok], nxt[ok], method=cv2.RANSAC,
+                                                 ransacReprojThreshold=2.0)
+            if M is None:
+                return None
+            M = M.astype(np.float64)
+            M[:, 2] /= f  # back to full-resolution pixels
+            return M
+        return None
+
+    def _apply_affine(self, M: np.ndarray) -> None:
+        A, b = M[:, :2], M[:, 2]
+        s = math.sqrt(abs(np.linalg.det(A)))
+        if len(self.particles):
+            self.particles = self.particles @ A.T + b
+        bk = self.bank
+        if len(bk):
+            bk.pos = bk.pos @ A.T + b
+            bk.obs_pos = bk.obs_pos @ A.T + b
+            bk.vel = bk.vel @ A.T
+            bk.size = bk.size * s
+            bk.sigma = bk.sigma * s
+            sx = bk.reg[:, 3:5] @ A.T + bk.reg[:, 0:1] * b
+            stx = bk.reg[:, 5:7] @ A.T + bk.reg[:, 1:2] * b
+            bk.reg[:, 3:5] = sx
+            bk.reg[:, 5:7] = stx
+        for lt in self.lost:
+            lt["pos"] = lt["pos"] @ A.T + b
+            lt["vel"] = lt["vel"] @ A.T
+            lt["size"] = lt["size"] * s
+
+    # ------------------------------------------------------------------ regression
+    def _advance_regression(self, dt: float) -> None:
+        r = self.bank.reg
+        if len(r) == 0 or dt <= 0:
+            return
+        sw, st, stt = r[:, 0].copy(), r[:, 1].copy(), r[:, 2].copy()
+        r[:, 1] = st - dt * sw
+        r[:, 2] = stt - 2 * dt * st + dt * dt * sw
+        r[:, 5] = r[:, 5] - dt * r[:, 3]
+        r[:, 6] = r[:, 6] - dt * r[:, 4]
+        r *= math.exp(-dt / self.velocity_tau_s) if self.velocity_tau_s > 0 else 0.0
+
+    def _velocity_sigma(self, r: int) -> float:
+        """Standard deviation of track ``r``'s velocity (px/s), from its regression's time spread."""
+        reg = self.bank.reg[r]
+        if reg[0] <= 0:
+            return np.inf
+        spread = reg[2] - reg[1] ** 2 / reg[0]  # sum of w (t - mean t)^2
+        if spread <= 1e-12:
+            return np.inf
+        return float(np.sqrt(self.bank.resid_var[r] / spread))
+
+    def _regression_velocity(self, rows: np.ndarray) -> np.ndarray:
+        r = self.bank.reg[rows]
+        den = r[:, 0] * r[:, 2] - r[:, 1] ** 2
+        ok = den > 1e-9 * np.maximum(r[:, 0] ** 2, 1e-300)
+        v = np.zeros((len(rows), 2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v[:, 0] = (r[:, 0] * r[:, 5] - r[:, 1] * r[:, 3]) / den
+            v[:, 1] = (r[:, 0] * r[:, 6] - r[:, 1] * r[:, 4]) / den
+        return np.where(ok[:, None], v, self.bank.vel[rows])
+
+    # ------------------------------------------------------------------ the loop
+    def update(self, detections: Detections, frame: Frame | None = None) -> Tracks:
+        """Advance to ``detections.t_s`` and return the tracks (confirmed and coasting).
+
+        Parameters
+        ----------
+        detections : Detections
+            Boxes of this frame (malformed ones, non-finite or of non-positive size, are
+            rejected and counted in ``n_rejected``).
+        frame : Frame, optional
+            The image: used for the colour models of group tracking and re-identification, for
+            the image size (parameter scaling, tracks leaving the image) and for ego-motion.
+        """
+        t = float(detections.t_s)
+        if self._t is not None and t < self._t:  # time went backwards: a new sequence
+            self.reset()
+        dt = 0.0 if self._t is None else t - self._t
+        self._t = t
+        if dt > 0:
+            self._dt = dt
+        self._frame = frame
+        if frame is not None:
+            h, w = frame.shape
+            if self._img_size is None:
+                self._scale = w / REFERENCE_WIDTH_PX
+            self._img_size = (h, w)
+            M = self._ego_affine(frame) if self.ego_motion != "none" else None
+            if M is not None:
+                self._apply_affine(M)
+        bk = self.bank
+        delta = self._px(self.delta_px)
+
+        # observations: bottom centres of the well-formed boxes
+        boxes = np.asarray(detections.boxes, dtype=np.float64).reshape(-1, 4)
+        good = np.all(np.isfinite(boxes), axis=1) & (boxes[:, 2] > 0) & (boxes[:, 3] > 0)
+        if not np.all(good):
+            self.n_rejected += int((~good).sum())
+            boxes = boxes[good]
+        z = _bottom_centres(boxes)
+        m = len(z)
+
+        # 1. predict tracks and their particles
+        if dt > 0 and len(bk):
+            bk.pos = bk.pos + bk.vel * dt
+            self._advance_regression(dt)
+        bk.updated[:] = False
+        if len(self.particles):
+            rows = bk.rows_of(self.labels)
+            vp = np.where(rows[:, None] >= 0, bk.vel[np.maximum(rows, 0)] if len(bk) else 0.0, 0.0)
+            jitter = max(self._px(self.process_noise_px_s) * dt, 0.5 * self._scale)
+            self.particles = predict_particles(self.particles, vp, dt, jitter, self.rng)
+
+        # 2. draw particles around the observations, 3. weigh every particle
+        n_inj_total = int(round(self.inject_frac * self.num_particles))
+        per_obs = max(2 * self._min_size(), n_inj_total // max(m, 1)) if m else 0
+        inj, comp = sample_gaussians(z, self._px(self.inject_sigma_px), np.full(m, per_obs), self.rng)
+        P = np.vstack([self.particles, inj]) if len(inj) else self.particles
+        lab = np.concatenate([self.labels, np.full(len(inj), -1, np.int64)])
+        src = np.concatenate([np.full(len(self.particles), -1, np.int64), comp])
+        ksig = self._px(self.kernel_sigma_px)
+        w = kernel_likelihood(P, z, ksig) if m else np.zeros(len(P))
+
+        # 4. KClusterize
+        cl = kclusterize(P, w, delta, min_seed_weight=math.exp(-delta / ksig), min_size=self._min_size())
+        K = len(cl)
+        # each observation's cluster: where most of its drawn particles went
+        obs_cluster = np.full(m, -1, np.int64)
+        if m and K:
+            sel = cl.labels[len(self.particles):]
+            okp = sel >= 0
+            tab = np.zeros((m, K), np.int64)
+            np.add.at(tab, (comp[okp], sel[okp]), 1)
+            has = tab.max(axis=1) > 0
+            obs_cluster = np.where(has, tab.argmax(axis=1), -1)
+        # each supported cluster's representative observation (the one nearest its mean)
+        c_obs = np.full(K, -1, np.int64)
+        if m and K:
+            j = np.flatnonzero(obs_cluster >= 0)
+            d = np.linalg.norm(z[j] - cl.means[obs_cluster[j]], axis=1)
+            order = np.argsort(-d, kind="stable")  # nearest written last wins
+            c_obs[obs_cluster[j[order]]] = j[order]
+        supported = c_obs >= 0
+        c_size = np.zeros((K, 2))
+        c_size[supported] = boxes[c_obs[supported], 2:4]
+        c_pos = cl.means
+        c_track = np.full(K, -1, np.int64)  # row of the track each cluster went to
+        consumed = np.zeros(K, bool)  # taken by a group
+
+        # 5. groups
+        self._process_groups(t, cl, supported, c_pos, c_size, c_track, consumed)
+
+        # 6. associate the remaining clusters with the non-grouped tracks
+        free_tr = np.flatnonzero((bk.group < 0) & ~bk.updated)
+        free_cl = np.flatnonzero(supported & ~consumed & (c_track < 0))
+        gate = self._px(self.gate_px)
+        if len(free_tr) and len(free_cl):
+            d = np.linalg.norm(bk.pos[free_tr][:, None, :] - c_pos[free_cl][None, :, :], axis=2)
+            cost = np.where(d <= gate, d, 1e9)
+            ri, ci = linear_sum_assignment(cost)
+            ok = cost[ri, ci] < 1e9
+            rows, cls_ = free_tr[ri[ok]], free_cl[ci[ok]]
+            self._update_tracks(rows, c_pos[cls_], c_size[cls_], cl.sigmas[cls_], cl.weights[cls_], t, dt)
+            c_track[cls_] = rows
+
+        # 7. births
+        born = np.flatnonzero(supported & ~consumed & (c_track < 0))
+        if len(born):
+            rows = bk.append(len(born))
+            bk.uid[rows] = np.arange(self._next_uid, self._next_uid + len(born))
+            self._next_uid += len(born)
+            bk.pos[rows] = c_pos[born]
+            bk.size[rows] = c_size[born]
+            bk.born_t[rows] = t
+            self._update_tracks(rows, c_pos[born], c_size[born], cl.sigmas[born], cl.weights[born], t, dt)
+            c_track[born] = rows
+
+        # confirmation (with re-identification against lost tracks)
+        window = self._confirm_window()
+        ready = np.flatnonzero(~bk.confirmed & bk.updated & (bk.hits >= self.confirm_hits)
+                               & (t - bk.hit_t[:, 0] <= window + 1e-9))
+        self._absorbed = np.zeros(len(bk), bool)
+        for r in ready:  # a handful of events per run
+            self._confirm(int(r), t)
+
+        # 8. deletion
+        alive = np.where(bk.confirmed, t - bk.last_t <= self.max_coast_s + 1e-9,
+                         t - bk.last_t <= window + 1e-9)
+        alive |= bk.group >= 0
+        alive &= ~self._absorbed
+        if self._img_size is not None and len(bk):
+            h, wd = self._img_size
+            b = bk.boxes()
+            inside = (b[:, 0] + b[:, 2] > 0) & (b[:, 1] + b[:, 3] > 0) & (b[:, 0] < wd) & (b[:, 1] < h)
+            alive &= inside | bk.updated
+        if not np.all(alive):
+            dead = np.flatnonzero(~alive)
+            for r in dead:
+                if bk.confirmed[r] and not self._absorbed[r]:
+                    self._remember(int(r), t)
+            dead_uids = set(bk.uid[dead].tolist())
+            for g in self.groups:
+                g.members = [u for u in g.members if u not in dead_uids]
+            keep_rows = np.flatnonzero(alive)
+            remap = np.full(len(bk), -1, np.int64)
+            remap[keep_rows] = np.arange(len(keep_rows))
+            c_track = np.where(c_track >= 0, remap[np.maximum(c_track, 0)], -1)
+            bk.keep(alive)
+        self.lost = [lt for lt in self.lost if t - lt["t_lost"] <= self.reid_memory_s]
+
+        # 9. groups form; colour models of isolated tracks refresh
+        self._form_groups(t)
+        self._refresh_colour(t)
+
+        # 10. per-cluster resampling
+        self._resample(P, w, lab, cl, c_track)
+
+        return self._output(t, detections)
+
+    # ------------------------------------------------------------------ pieces
+    def _min_size(self) -> int:
+        return 5
+
+    def _confirm_window(self) -> float:
+        """The confirmation window, widened to 1.5 frame intervals per needed sighting at low rates."""
+        return max(self.confirm_window_s, 1.5 * (self.confirm_hits - 1) * self._dt)
+
+    def _update_tracks(self, rows, pos, size, sigma, weight, t, dt) -> None:
+        """Update tracks ``rows`` with cluster estimates."""
+        bk = self.bank
+        if len(rows) == 0:
+            return
+        fresh = bk.hits[rows] == 0
+        innov = 0.5 * np.sum((pos - bk.pos[rows]) ** 2, axis=1)
+        a = np.where(bk.hits[rows] <= 1, 1.0, 0.2)
+        bk.resid_var[rows] = np.where(fresh, (self._px(self.inject_sigma_px)) ** 2,
+                                      (1 - a) * bk.resid_var[rows] + a * innov)
+        bk.pos[rows] = pos
+        beta = 1.0 - math.exp(-dt / self.size_tau_s) if self.size_tau_s > 0 and dt > 0 else 1.0
+        b = np.where(fresh, 1.0, beta)[:, None]
+        bk.size[rows] = bk.size[rows] + b * (size - bk.size[rows])
+        bk.sigma[rows] = sigma
+        bk.weight[rows] = weight
+        reg = bk.reg[rows]
+        reg[:, 0] += 1.0
+        reg[:, 3:5] += pos
+        bk.reg[rows] = reg
+        bk.vel[rows] = self._regression_velocity(rows)
+        bk.last_t[rows] = t
+        bk.obs_t[rows] = t
+        bk.obs_pos[rows] = pos
+        bk.hits[rows] += 1
+        ht = bk.hit_t[rows]
+        bk.hit_t[rows] = np.column_stack([ht[:, 1:], np.full(len(rows), t)])
+        bk.updated[rows] = True
+
+    def _colour(self, boxes: np.ndarray) -> np.ndarray | None:
+        f = self._frame
+        if f is None or len(boxes) == 0:
+            return None
+        return hsv_histograms(f.image, boxes)
+
+    def _confirm(self, r: int, t: float) -> None:
+        """Confirm track row ``r``: re-identify it against lost and coasting tracks, or number it."""
+        bk = self.bank
+        bk.confirmed[r] = True
+        hist = self._colour(bk.boxes(np.array([r])))
+        if hist is not None:
+            bk.hist[r] = hist[0]
+            bk.has_hist[r] = hist[0].sum() > 0
+            bk.hist_t[r] = t
+        mine = bk.hist[r] if bk.has_hist[r] else None
+        motion = (bk.vel[r].copy(), self._velocity_sigma(r))
+        best, best_cost, best_kind = -1, np.inf, ""
+        for k, lt in enumerate(self.lost):
+            ok, cost = self._reid_test(lt["pos"], lt["vel"], lt["last_t"], lt["hist"], bk.pos[r], mine, t, motion)
+            if ok and cost < best_cost:
+                best, best_cost, best_kind = k, cost, "lost"
+        # confirmed tracks coasting right now are lost too, for the time being
+        coasting = np.flatnonzero(bk.confirmed & ~bk.updated & (bk.group < 0) & ~self._absorbed[: len(bk)])
+        for q in coasting:
+            if q == r:
+                continue
+            ok, cost = self._reid_test(bk.obs_pos[q], bk.vel[q], bk.obs_t[q],
+                                       bk.hist[q] if bk.has_hist[q] else None, bk.pos[r], mine, t, motion)
+            if ok and cost < best_cost:
+                best, best_cost, best_kind = int(q), cost, "coasting"
+        if best_kind == "lost":
+            lt = self.lost.pop(best)
+            pid, born, old_hist = lt["pid"], lt["born_t"], lt["hist"]
+        elif best_kind == "coasting":
+            pid, born = int(bk.pid[best]), float(bk.born_t[best])
+            old_hist = bk.hist[best].copy() if bk.has_hist[best] else None
+            self._absorbed[best] = True  # the coasting track lives on in r
+        else:
+            bk.pid[r] = self._next_pid
+            self._next_pid += 1
+            return
+        bk.pid[r] = pid
+        bk.born_t[r] = born
+        if old_hist is not None:
+            bk.hist[r] = old_hist  # the older model was taken when the vessel was alone
+            bk.has_hist[r] = True
+
+    def _reid_test(self, last_pos, vel, last_t, hist_old, pos, hist, t, motion=None) -> tuple[bool, float]:
+        """The paper's tests of a new track at ``pos`` against a track lost at ``last_pos``.
+
+        Closeness to where the lost track should be now; the same direction and a similar speed,
+        both for the displacement since it was lost and for the new track's own velocity
+        (``motion = (velocity, its standard deviation)``, the tolerance widened by that
+        uncertainty, as a new track's velocity rests on a few sightings); and a colour match when
+        both colour models exist.  Returns (passed, cost), the cost ranking passing candidates.
+        """
+        dt = max(t - last_t, 0.0)
+        disp = pos - last_pos
+        speed = float(np.linalg.norm(vel))
+        pred_err = float(np.linalg.norm(pos - (last_pos + vel * dt)))
+        delta = self._px(self.delta_px)
+        gate = self._px(self.gate_px) + self.reid_speed_ratio * speed * dt
+        if pred_err > gate:
+            return False, np.inf  # not close to where it should be
+        dist = float(np.linalg.norm(disp))
+        if speed >= self._px(self.min_speed_px_s) and dist > 2 * delta:
+            if _angle_deg(disp, vel) > self.reid_angle_deg:
+                return False, np.inf  # not the same direction
+            if abs(dist / max(dt, 1e-9) - speed) > self.reid_speed_ratio * speed:
+                return False, np.inf  # not a similar speed
+        if motion is not None and np.isfinite(motion[1]):
+            v_new, sv = motion
+            s_new = float(np.linalg.norm(v_new))
+            vmin = self._px(self.min_speed_px_s)
+            if speed >= vmin and s_new >= max(vmin, 2 * sv):
+                tol = self.reid_angle_deg + math.degrees(math.atan2(2 * sv, s_new))
+                if _angle_deg(v_new, vel) > tol:
+                    return False, np.inf  # heading elsewhere
+                if abs(s_new - speed) > self.reid_speed_ratio * speed + 2 * sv:
+                    return False, np.inf  # at another speed
+        cost = pred_err / max(gate, 1e-9)
+        if hist is not None and hist_old is not None:
+            dc = float(colour_distance_matrix(hist, hist_old)[0, 0])
+            if dc >= self.colour_max_dist:
+                return False, np.inf
+            cost = dc + 0.1 * cost
+        return True, cost
+
+    def _remember(self, r: int, t: float) -> None:
+        bk = self.bank
+        self.lost.append(dict(
+            pid=int(bk.pid[r]), pos=bk.obs_pos[r].copy(), vel=bk.vel[r].copy(),
+            size=bk.size[r].copy(), last_t=float(bk.obs_t[r]), t_lost=t, born_t=float(bk.born_t[r]),
+            hist=bk.hist[r].copy() if bk.has_hist[r] else None,
+        ))
+
+    def _process_groups(self, t, cl, supported, c_pos, c_size, c_track, consumed) -> None:
+        bk = self.bank
+        for gi, g in enumerate(self.groups):
+            if g is None:
+                continue
+            rows = bk.rows_of(np.asarray(g.members, np.int64))
+            rows = rows[rows >= 0]
+            if len(rows) < 2:
+                bk.group[rows] = -1
+                self.groups[gi] = None
+                continue
+            boxes = bk.boxes(rows)
+            x1, y1 = boxes[:, 0].min(), boxes[:, 1].min()
+            x2, y2 = (boxes[:, 0] + boxes[:, 2]).max(), (boxes[:, 1] + boxes[:, 3]).max()
+            pad = self._px(self.delta_px)
+            inside = (supported & ~consumed & (c_track < 0)
+                      & (c_pos[:, 0] >= x1 - pad) & (c_pos[:, 0] <= x2 + pad)
+                      & (c_pos[:, 1] >= y1 - pad) & (c_pos[:, 1] <= y2 + pad))
+            comps = overlap_components(boxes, self.group_shrink)
+            still = comps.max() == 0 and t - g.formed_t_s <= self.group_max_s
+            if still:
+                consumed |= inside
+                continue
+            # the group separates: give the members the clusters that come out of it
+            cand = np.flatnonzero(inside)
+            self.groups[gi] = None
+            bk.group[rows] = -1
+            bk.last_t[rows] = np.maximum(bk.last_t[rows], t - 1e-9)  # a fresh coasting period
+            if len(cand) == 0:
+                continue
+            cboxes = _box_from(c_pos[cand], c_size[cand])
+            d = np.linalg.norm(bk.pos[rows][:, None, :] - c_pos[cand][None, :, :], axis=2)
+            gate = self._px(self.gate_px)
+            pos_cost = np.where(d <= 2 * gate, 0.1 * d / gate, np.inf)
+            saved = np.array([g.histograms.get(int(u)) if g.histograms.get(int(u)) is not None
+                              else np.zeros(_NB) for u in bk.uid[rows]])
+            ch = self._colour(cboxes)
+            pairs = []
+            if ch is not None and np.all(saved.sum(1) > 0):
+                pairs = [(i, j) for i, j, _ in match_by_colour(saved, ch, self.colour_max_dist,
+                                                              extra_cost=pos_cost)]
+            else:  # no colour: nearest by position
+                cost = np.where(np.isfinite(pos_cost), pos_cost, 1e9)
+                ri, ci = linear_sum_assignment(cost)
+                pairs = [(i, j) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
+            if pairs:
+                pr = rows[[i for i, _ in pairs]]
+                pc = cand[[j for _, j in pairs]]
+                self._update_tracks(pr, c_pos[pc], c_size[pc], cl.sigmas[pc], cl.weights[pc], t, self._dt)
+                c_track[pc] = pr
+            # the rest of the clusters near the group stay with it for this frame
+            consumed[cand[c_track[cand] < 0]] = True
+        self.groups = [g for g in self.groups if g is not None]
+        for gi, g in enumerate(self.groups):
+            rows = bk.rows_of(np.asarray(g.members, np.int64))
+            bk.group[rows[rows >= 0]] = gi
+
+    def _form_groups(self, t: float) -> None:
+        bk = self.bank
+        conf = np.flatnonzero(bk.confirmed)
+        if len(conf) < 2:
+            return
+        comps = overlap_components(bk.boxes(conf), self.group_shrink)
+        if comps.max() == len(conf) - 1:
+            return  # nobody overlaps
+        for c in range(comps.max() + 1):
+            rows = conf[comps == c]
+            if len(rows) < 2:
+                continue
+            old = sorted({int(bk.group[r]) for r in rows if bk.group[r] >= 0})
+            if len(old) == 1 and np.all(bk.group[rows] == old[0]):
+                continue  # already this group
+            members: list[int] = []
+            hists: dict[int, np.ndarray | None] = {}
+            formed = t
+            for gi in old:
+                g = self.groups[gi]
+                members += g.members
+                hists.update(g.histograms)
+                formed = min(formed, g.formed_t_s)
+                self.groups[gi] = None
+            for r in rows:
+                u = int(bk.uid[r])
+                if u not in members:
+                    members.append(u)
+                    hists[u] = bk.hist[r].copy() if bk.has_hist[r] else None
+            self.groups.append(Group(members, hists, formed))
+        self.groups = [g for g in self.groups if g is not None]
+        bk.group[:] = -1
+        for gi, g in enumerate(self.groups):
+            rows = bk.rows_of(np.asarray(g.members, np.int64))
+            bk.group[rows[rows >= 0]] = gi
+
+    def _refresh_colour(self, t: float) -> None:
+        """Refresh the colour model of confirmed, updated tracks whose box overlaps no other track."""
+        bk = self.bank
+        if self._frame is None or len(bk) == 0:
+            return
+        due = bk.confirmed & bk.updated & (bk.group < 0) & (
+            ~bk.has_hist | (t - bk.hist_t >= self.hist_interval_s))
+        if not due.any():
+            return
+        boxes = bk.boxes()
+        comps = overlap_components(boxes, 1.0)
+        alone = np.bincount(comps, minlength=comps.max() + 1)[comps] == 1
+        rows = np.flatnonzero(due & alone)
+        if len(rows):
+            h = self._colour(boxes[rows])
+            bk.hist[rows] = h
+            bk.has_hist[rows] = h.sum(1) > 0
+            bk.hist_t[rows] = t
+
+    def _resample(self, P, w, lab, cl, c_track) -> None:
+        bk = self.bank
+        n_trk = len(bk)
+        if n_trk == 0:
+            self.particles = np.zeros((0, 2))
+            self.labels = np.zeros(0, np.int64)
+            return
+        grp = np.full(len(P), -1, np.int64)
+        # a track without a cluster keeps its own particles (uniform weights)
+        prow = bk.rows_of(lab)
+        has_cluster = np.zeros(n_trk, bool)
+        has_cluster[c_track[c_track >= 0]] = True
+        own = (prow >= 0) & ~has_cluster[np.maximum(prow, 0)]
+        grp[own] = prow[own]
+        wts = np.where(own, 1.0, w)
+        # a cluster given to a track passes its particles to it (weighted)
+        pc = np.where(cl.labels >= 0, c_track[np.maximum(cl.labels, 0)], -1) if len(c_track) else grp
+        take = pc >= 0
+        grp[take] = pc[take]
+        wts[take] = w[take]
+        n_inj = int(round(self.inject_frac * self.num_particles))
+        per = max(self.min_particles_per_track, (self.num_particles - n_inj) // n_trk)
+        idx, g = resample_groups(grp, wts, np.full(n_trk, per), self.rng)
+        newP = P[idx]
+        newL = bk.uid[g]
+        # tracks left without particles get a fresh cloud around their position
+        empty = np.setdiff1d(np.arange(n_trk), g)
+        if len(empty):
+            sig = np.maximum(bk.sigma[empty], self._px(self.inject_sigma_px))
+            pts, comp = sample_gaussians(bk.pos[empty], sig, np.full(len(empty), per), self.rng)
+            newP = np.vstack([newP, pts])
+            newL = np.concatenate([newL, bk.uid[empty][comp]])
+        self.particles = newP
+        self.labels = newL
+
+    def _output(self, t: float, det: Detections) -> Tracks:
+        bk = self.bank
+        show = bk.confirmed | self.output_tentative
+        rows = np.flatnonzero(show)
+        ids = np.where(bk.confirmed[rows], bk.pid[rows], -bk.uid[rows])
+        states = np.where(bk.confirmed[rows],
+                          np.where(bk.updated[rows], int(TrackState.CONFIRMED), int(TrackState.COASTING)),
+                          int(TrackState.TENTATIVE)).astype(np.int8)
+        return Tracks(t, det.frame_index, ids, bk.boxes(rows), bk.vel[rows].copy(), states,
+                      t - bk.born_t[rows], source=self.name, camera_id=det.camera_id)
+
+    # ------------------------------------------------------------------ distributed layer
+    def beliefs(self, sensor: str = "cam0", to_world=None) -> np.ndarray:
+        """This sensor's beliefs for the global layer: one Gaussian per confirmed track.
+
+        Parameters
+        ----------
+        sensor : str
+            Name of this sensor.
+        to_world : callable, optional
+            Maps ``(N, 2)`` image points (bottom centres) to ``(N, 2)`` common coordinates (e.g.
+            sea-plane metres); the spread and velocity are mapped through its local Jacobian.
+            Without it the beliefs stay in pixels.
+
+        Returns
+        -------
+        structured array of :data:`BELIEF_DTYPE`, ``weight`` normalised over the beliefs.
+        """
+        bk = self.bank
+        rows = np.flatnonzero(bk.confirmed)
+        out = np.zeros(len(rows), BELIEF_DTYPE)
+        if len(rows) == 0:
+            return out
+        mean = bk.pos[rows]
+        sig = np.maximum(bk.sigma[rows], 0.5 * self._scale)
+        vel = bk.vel[rows]
+        if to_world is not None:
+            h = 1.0
+            c = np.asarray(to_world(mean), np.float64)
+            jx = (np.asarray(to_world(mean + [h, 0]), np.float64) - c) / h
+            jy = (np.asarray(to_world(mean + [0, h]), np.float64) - c) / h
+            vel = jx * vel[:, :1] + jy * vel[:, 1:2]
+            sig = np.sqrt((jx * sig[:, :1]) ** 2 + (jy * sig[:, 1:2]) ** 2)
+            mean = c
+        wt = np.where(bk.updated[rows], 1.0, 0.5)  # coasting tracks are less sure
+        out["sensor"] = sensor
+        out["id"] = bk.pid[rows]
+        out["t_s"] = self._t if self._t is not None else 0.0
+        out["weight"] = wt / wt.sum()
+        out["mean"] = mean
+        out["sigma"] = sig
+        out["velocity"] = vel
+        return out
