@@ -34,7 +34,9 @@ Definitions, conventions and deviations are in each module's docstring and in
 HOTA, IDF1 and the MOTChallenge CLEAR metrics follow TrackEval and agree with it to 1e-4 on the
 fixtures in ``tests/fixtures/eval``; OSPA and GOSPA agree with Stone Soup to 1e-6.
 
-Helpers: :func:`box_iou` (IoU matrix of ``x, y, w, h`` boxes), :func:`as_frameset`.
+Helpers: :func:`box_iou` (IoU matrix of ``x, y, w, h`` boxes), :func:`as_frameset`, and
+:func:`prepare`: ``prep = prepare(gt, pred)`` flattens, pairs and matches once; pass ``prep`` as
+``gt`` (and ``None`` as ``pred``) to several metrics to score them without repeating that work.
 The benchmark harness (``seawatch bench``) is :mod:`seawatch.eval.bench`.
 """
 
@@ -42,13 +44,14 @@ from seawatch.eval.clear import clear_mot
 from seawatch.eval.detection import SIZE_BINS_PX2, detection_metrics, pr_curve
 from seawatch.eval.frames import FrameSet, as_frameset, box_iou
 from seawatch.eval.hota import ALPHAS, hota, identity_metrics
+from seawatch.eval.matching import Prepared, prepare
 from seawatch.eval.mete import TAUS, melt, mete
 from seawatch.eval.ospa import gospa, ospa
 
 __all__ = [
     "detection_metrics", "pr_curve", "clear_mot", "hota", "identity_metrics", "mete", "melt",
     "ospa", "gospa", "score_tracks", "box_iou", "as_frameset", "FrameSet", "ALPHAS", "TAUS",
-    "SIZE_BINS_PX2",
+    "SIZE_BINS_PX2", "prepare", "Prepared",
 ]
 
 
@@ -58,19 +61,17 @@ def score_tracks(gt, pred, iou: float = 0.5, frames=None) -> dict:
     Keys: ``MOTA, MOTP, IDSW, Frag, FP, FN, MT, PT, ML`` (MOTChallenge), ``MOTA_VACE,
     MOTP_VACE`` (Kasturi), ``HOTA, DetA, AssA, LocA``, ``IDF1, IDP, IDR``, ``METE, MELT``.
     """
-    from seawatch.eval.frames import align
-
-    g, p = align(gt, pred, frames)
-    c = clear_mot(g, p, iou=iou)
-    v = clear_mot(g, p, iou=iou, variant="vace")
-    h = hota(g, p)
-    i = identity_metrics(g, p, iou=iou)
+    prep = prepare(gt, pred, frames)  # flatten, pair and match once for every metric
+    c = clear_mot(prep, None, iou=iou)
+    v = clear_mot(prep, None, iou=iou, variant="vace")
+    h = hota(prep, None)
+    i = identity_metrics(prep, None, iou=iou)
     out = {k: c[k] for k in ("MOTA", "MOTP", "IDSW", "Frag", "FP", "FN", "TP", "MT", "PT", "ML",
                              "precision", "recall")}
     out["MOTA_VACE"] = v["MOTA"]
     out["MOTP_VACE"] = v["MOTP"]
     out.update({k: h[k] for k in ("HOTA", "DetA", "AssA", "LocA")})
     out.update({k: i[k] for k in ("IDF1", "IDP", "IDR")})
-    out["METE"] = mete(g, p)["METE"]
-    out["MELT"] = melt(g, p)["MELT"]
+    out["METE"] = mete(prep, None)["METE"]
+    out["MELT"] = melt(prep, None)["MELT"]
     return out

@@ -30,8 +30,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from seawatch.eval.frames import align, pair_table
-from seawatch.eval.matching import EPS, assign_frames, check_unique_ids, relabel
+from seawatch.eval.matching import EPS, prepare, split_conflict_free
 
 __all__ = ["clear_mot"]
 
@@ -56,16 +55,13 @@ def clear_mot(gt, pred, iou: float = 0.5, variant: str = "motchallenge", frames=
         ``MOTA, MOTP, MODA, IDSW, Frag, FP, FN, TP, MT, PT, ML, recall, precision, n_gt, n_pred,
         n_frames`` and, for VACE, ``MOTA_logtotal`` and ``idsw_per_frame``.
     """
-    g, p = align(gt, pred, frames)
-    check_unique_ids(g.fidx, g.ids, "ground truth", g.frames)
-    check_unique_ids(p.fidx, p.ids, "predictions", p.frames)
-    pt = pair_table(g, p)
-    gid, n_gid = relabel(g.ids)
-    pid, n_pid = relabel(p.ids)
+    prep = prepare(gt, pred, frames)
+    g, p, pt = prep.g, prep.p, prep.pt
+    gid, n_gid, pid, _ = prep.ids()
     if variant == "motchallenge":
         res = _clear_motchallenge(g, p, pt, gid, n_gid, pid, iou)
     elif variant == "vace":
-        res = _clear_vace(g, p, pt, gid, n_gid, pid, iou)
+        res = _clear_vace(g, p, pt, gid, n_gid, pid, prep.thresholded(iou))
     else:
         raise ValueError(f"unknown CLEAR MOT variant {variant!r} (motchallenge or vace)")
     if len(g) == 0:
@@ -105,8 +101,15 @@ def _mt_pt_ml(gid, n_gid, matched_gid):
 
 def _clear_motchallenge(g, p, pt, gid, n_gid, pid, thr):
     start, ng, npd = pt.start.tolist(), pt.ng.tolist(), pt.np_.tolist()
-    gs, ps = g.starts.tolist(), p.starts.tolist()
+    lr, lc = pt.lr, pt.lc
     sim_all = pt.sim
+    thr_score = np.where(sim_all >= thr - EPS, sim_all, 0.0) if len(sim_all) else sim_all
+    fast_q, slow = split_conflict_free(pt, thr_score)
+    easy = np.ones(len(ng), bool)
+    easy[slow] = False
+    fast_start = np.searchsorted(pt.pf[fast_q], np.arange(len(ng) + 1))
+    fast_r, fast_c = lr[fast_q], lc[fast_q]
+    gs, ps = g.starts.tolist(), p.starts.tolist()
     prev_any = np.full(n_gid, -1, np.int64)  # last matched prediction id, any frame before
     prev_t = np.full(n_gid, -1, np.int64)  # matched prediction id in the last scored frame
     frag = np.zeros(n_gid, np.int64)
@@ -122,15 +125,27 @@ def _clear_motchallenge(g, p, pt, gid, n_gid, pid, thr):
         if m == 0:
             fn += n
             continue
-        s = start[f]
-        sim = sim_all[s:s + n * m].reshape(n, m)
+        s, e = start[f], start[f + 1]
+        if s == e:  # no overlapping pair: nothing can match
+            fn += n
+            fp += m
+            prev_t[:] = -1
+            continue
         g_ids = gid[gs[f]:gs[f] + n]
         p_ids = pid[ps[f]:ps[f] + m]
-        score = 1000.0 * (p_ids[None, :] == prev_t[g_ids][:, None]) + sim
-        score[sim < lim] = 0.0
-        r, c = linear_sum_assignment(-score)
-        keep = score[r, c] > EPS
-        r, c = r[keep], c[keep]
+        if easy[f]:  # no competing candidates: the pairs above the threshold are the matches
+            k0, k1 = fast_start[f], fast_start[f + 1]
+            r, c = fast_r[k0:k1], fast_c[k0:k1]
+            sim_rc = sim_all[fast_q[k0:k1]]
+        else:
+            sim = np.zeros((n, m))
+            sim[lr[s:e], lc[s:e]] = sim_all[s:e]
+            score = 1000.0 * (p_ids[None, :] == prev_t[g_ids][:, None]) + sim
+            score[sim < lim] = 0.0
+            r, c = linear_sum_assignment(-score)
+            keep = score[r, c] > EPS
+            r, c = r[keep], c[keep]
+            sim_rc = sim[r, c]
         mg, mp = g_ids[r], p_ids[c]
         last = prev_any[mg]
         idsw += int(np.count_nonzero((last >= 0) & (last != mp)))
@@ -143,7 +158,7 @@ def _clear_motchallenge(g, p, pt, gid, n_gid, pid, thr):
         tp += k
         fn += n - k
         fp += m - k
-        motp_sum += float(sim[r, c].sum())
+        motp_sum += float(sim_rc.sum())
         matched_g.append(mg)
     res = _summary(tp, fp, fn, idsw, motp_sum, len(g), len(p))
     mg_all = np.concatenate(matched_g) if matched_g else np.zeros(0, np.int64)
@@ -153,9 +168,8 @@ def _clear_motchallenge(g, p, pt, gid, n_gid, pid, thr):
     return res
 
 
-def _clear_vace(g, p, pt, gid, n_gid, pid, thr):
-    score = np.where(pt.sim >= thr - EPS, pt.sim, 0.0)
-    q = assign_frames(pt, score)  # matched pairs, frame order
+def _clear_vace(g, p, pt, gid, n_gid, pid, q):
+    # q: the matched pairs (Hungarian on IoU above the threshold), in frame order
     mg = gid[pt.gi[q]]
     mp = pid[pt.pj[q]]
     mf = pt.pf[q]

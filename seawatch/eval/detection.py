@@ -27,8 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from seawatch.eval.frames import align, pair_table
-from seawatch.eval.matching import EPS, assign_frames
+from seawatch.eval.matching import EPS, prepare
 
 __all__ = ["detection_metrics", "pr_curve", "SIZE_BINS_PX2"]
 
@@ -69,10 +68,11 @@ def detection_metrics(gt, pred, iou: float = 0.5, frames=None, size_bins_px2: di
         n_frames, iou, by_size`` and, with ``pr``, ``AP`` and ``pr_curve`` (``score, precision,
         recall`` arrays).
     """
-    g, p = align(gt, pred, frames)
-    pt = pair_table(g, p)
-    score = np.where(pt.sim >= iou - EPS, pt.sim, 0.0)
-    q = assign_frames(pt, score)
+    if not 0.0 < iou <= 1.0:
+        raise ValueError(f"detection_metrics: iou must be in (0, 1], got {iou}")
+    prep = prepare(gt, pred, frames)
+    g, p, pt = prep.g, prep.p, prep.pt
+    q = prep.thresholded(iou)
     tp = len(q)
     n_gt, n_pred = len(g), len(p)
     fn, fp = n_gt - tp, n_pred - tp
@@ -113,15 +113,19 @@ def detection_metrics(gt, pred, iou: float = 0.5, frames=None, size_bins_px2: di
 
 
 @numba.njit(cache=True)
-def _greedy_match(pair_start, ng, npd, p_starts, sim, scores, thr):
+def _greedy_match(pair_start, lr, lc, ng, npd, p_starts, sim, scores, thr):
     """VOC-style greedy matching in decreasing score order, frame by frame."""
     is_tp = np.zeros(scores.shape[0], np.bool_)
     for f in range(ng.shape[0]):
+        s = pair_start[f]
+        e = pair_start[f + 1]
+        if s == e:
+            continue
         n = ng[f]
         m = npd[f]
-        if n == 0 or m == 0:
-            continue
-        s = pair_start[f]
+        mat = np.zeros((n, m))
+        for k in range(s, e):
+            mat[lr[k], lc[k]] = sim[k]
         p0 = p_starts[f]
         order = np.argsort(-scores[p0:p0 + m], kind="mergesort")
         taken = np.zeros(n, np.bool_)
@@ -131,7 +135,7 @@ def _greedy_match(pair_start, ng, npd, p_starts, sim, scores, thr):
             best_iou = -1.0
             for i in range(n):
                 if not taken[i]:
-                    v = sim[s + i * m + j]
+                    v = mat[i, j]
                     if v >= thr and v > best_iou:
                         best = i
                         best_iou = v
@@ -145,7 +149,7 @@ def _pr_from_pairs(pt, g, p, iou: float) -> dict:
     n_gt = len(g)
     if len(p) == 0:
         return {"score": np.zeros(0), "precision": np.zeros(0), "recall": np.zeros(0), "AP": 0.0}
-    is_tp = _greedy_match(pt.start, pt.ng, pt.np_, p.starts, pt.sim, p.scores, float(iou) - EPS)
+    is_tp = _greedy_match(pt.start, pt.lr, pt.lc, pt.ng, pt.np_, p.starts, pt.sim, p.scores, float(iou) - EPS)
     order = np.argsort(-p.scores, kind="stable")
     tp_c = np.cumsum(is_tp[order])
     fp_c = np.cumsum(~is_tp[order])
@@ -164,5 +168,5 @@ def _pr_from_pairs(pt, g, p, iou: float) -> dict:
 
 def pr_curve(gt, pred, iou: float = 0.5, frames=None) -> dict:
     """Precision-recall curve over detection scores (``score, precision, recall, AP``)."""
-    g, p = align(gt, pred, frames)
-    return _pr_from_pairs(pair_table(g, p), g, p, iou)
+    prep = prepare(gt, pred, frames)
+    return _pr_from_pairs(prep.pt, prep.g, prep.p, iou)

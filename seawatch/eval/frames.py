@@ -259,49 +259,117 @@ def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @dataclass
 class PairTable:
-    """Every (ground truth, prediction) pair of every frame, scored once.
+    """The scored (ground truth, prediction) pairs of every frame.
 
-    Frame ``f``'s similarity matrix is ``sim[start[f]:start[f + 1]].reshape(ng[f], np_[f])``
-    (row-major: ground truth rows, prediction columns).
+    For IoU only the pairs that overlap (IoU > 0) are kept: the others can never be matched and
+    add nothing to any metric, and in a typical frame most pairs do not overlap.  For distances
+    every pair is kept.  Pairs are in frame order, then ground-truth row, then prediction column;
+    frame ``f`` owns pairs ``start[f]:start[f + 1]`` and :meth:`matrix` rebuilds its full
+    ``(ng[f], np_[f])`` matrix (zeros where no pair is stored).
     """
 
-    gi: np.ndarray  # (P,) ground-truth row of each pair
+    gi: np.ndarray  # (P,) ground-truth row (into the FrameSet) of each pair
     pj: np.ndarray  # (P,) prediction row of each pair
     pf: np.ndarray  # (P,) frame position of each pair
+    lr: np.ndarray  # (P,) row of the pair inside its frame's matrix
+    lc: np.ndarray  # (P,) column of the pair inside its frame's matrix
     sim: np.ndarray  # (P,) similarity (IoU, or distance for points)
     start: np.ndarray  # (F + 1,) pair offsets per frame
     ng: np.ndarray  # (F,) ground-truth objects per frame
     np_: np.ndarray  # (F,) predictions per frame
 
-    def matrix(self, f: int) -> np.ndarray:
-        return self.sim[self.start[f]:self.start[f + 1]].reshape(self.ng[f], self.np_[f])
+    def matrix(self, f: int, values: np.ndarray | None = None) -> np.ndarray:
+        """Frame ``f``'s full matrix of ``values`` (default the similarities), zeros elsewhere."""
+        vals = self.sim if values is None else values
+        s, e = self.start[f], self.start[f + 1]
+        out = np.zeros((self.ng[f], self.np_[f]))
+        out[self.lr[s:e], self.lc[s:e]] = vals[s:e]
+        return out
+
+
+#: Most cells of one padded block when looking for overlapping boxes.
+_BLOCK_CELLS = 1 << 22
+
+
+def _padded(fs: FrameSet, f0: int, f1: int, width: int) -> np.ndarray:
+    s, e = fs.starts[f0], fs.starts[f1]
+    out = np.zeros((f1 - f0, width, fs.boxes.shape[1] if fs.boxes.ndim == 2 else 4))
+    local = np.arange(s, e) - fs.starts[fs.fidx[s:e]]
+    out[fs.fidx[s:e] - f0, local] = fs.boxes[s:e]
+    return out
+
+
+def _overlapping_pairs(gt: FrameSet, pred: FrameSet):
+    """(frame, row, col) of every same-frame pair of boxes with a positive intersection."""
+    ng, npd = gt.counts, pred.counts
+    nf = len(ng)
+    out_f, out_r, out_c = [], [], []
+    f0 = 0
+    while f0 < nf:
+        # grow a block of frames while its padded size stays within budget
+        f1, gmax, pmax = f0, 0, 0
+        while f1 < nf:
+            g2, p2 = max(gmax, int(ng[f1])), max(pmax, int(npd[f1]))
+            if f1 > f0 and (f1 + 1 - f0) * g2 * p2 > _BLOCK_CELLS:
+                break
+            gmax, pmax, f1 = g2, p2, f1 + 1
+        if gmax and pmax:
+            a = _padded(gt, f0, f1, gmax)
+            b = _padded(pred, f0, f1, pmax)
+            ax, ay = a[:, :, None, 0], a[:, :, None, 1]
+            bx, by = b[:, None, :, 0], b[:, None, :, 1]
+            iw = np.minimum(ax + a[:, :, None, 2], bx + b[:, None, :, 2]) - np.maximum(ax, bx)
+            ih = np.minimum(ay + a[:, :, None, 3], by + b[:, None, :, 3]) - np.maximum(ay, by)
+            ff, rr, cc = np.nonzero((iw > 0) & (ih > 0))
+            ff = ff + f0
+            ok = (rr < ng[ff]) & (cc < npd[ff])
+            out_f.append(ff[ok])
+            out_r.append(rr[ok])
+            out_c.append(cc[ok])
+        f0 = f1
+    if not out_f:
+        z = np.zeros(0, np.int64)
+        return z, z, z
+    return (np.concatenate(out_f).astype(np.int64), np.concatenate(out_r).astype(np.int64),
+            np.concatenate(out_c).astype(np.int64))
+
+
+def _all_pairs(ng: np.ndarray, npd: np.ndarray):
+    npairs = ng * npd
+    start = np.concatenate([[0], np.cumsum(npairs)]).astype(np.int64)
+    pf = np.repeat(np.arange(len(ng), dtype=np.int64), npairs)
+    local = np.arange(int(start[-1]), dtype=np.int64) - start[pf]
+    cols = np.maximum(npd[pf], 1)
+    return pf, local // cols, local % cols
 
 
 def pair_table(gt: FrameSet, pred: FrameSet, measure: str = "iou") -> PairTable:
-    """All same-frame pairs of ``gt`` and ``pred`` (on one frame axis) with their similarity.
+    """Same-frame pairs of ``gt`` and ``pred`` (on one frame axis) with their similarity.
 
-    ``measure`` is ``"iou"`` (boxes) or ``"euclidean"`` (points; the distance is stored).
+    ``measure`` is ``"iou"`` (boxes ``x, y, w, h``; only overlapping pairs are kept) or
+    ``"euclidean"`` (points; every pair, the distance is stored).
     """
     if gt.n_frames != pred.n_frames:
         raise ValueError("gt and pred must share a frame axis (use align)")
-    ng = gt.counts
-    npd = pred.counts
-    npairs = ng * npd
-    start = np.concatenate([[0], np.cumsum(npairs)]).astype(np.int64)
-    total = int(start[-1])
-    pf = np.repeat(np.arange(len(ng), dtype=np.int64), npairs)
-    local = np.arange(total, dtype=np.int64) - start[pf]
-    cols = npd[pf]
-    gi = gt.starts[pf] + local // np.maximum(cols, 1)
-    pj = pred.starts[pf] + local % np.maximum(cols, 1)
+    ng, npd = gt.counts, pred.counts
     if measure == "iou":
-        sim = box_iou_pairs(gt.boxes[gi], pred.boxes[pj]) if total else np.zeros(0)
+        pf, lr, lc = _overlapping_pairs(gt, pred)
+        gi = gt.starts[pf] + lr
+        pj = pred.starts[pf] + lc
+        sim = box_iou_pairs(gt.boxes[gi], pred.boxes[pj]) if len(pf) else np.zeros(0)
+        keep = sim > 0  # zero-area boxes overlap nothing
+        if not keep.all():
+            pf, lr, lc, gi, pj, sim = pf[keep], lr[keep], lc[keep], gi[keep], pj[keep], sim[keep]
     elif measure == "euclidean":
-        if total:
+        pf, lr, lc = _all_pairs(ng, npd)
+        gi = gt.starts[pf] + lr
+        pj = pred.starts[pf] + lc
+        if len(pf):
             d = gt.boxes[gi] - pred.boxes[pj]
             sim = np.sqrt(np.einsum("ij,ij->i", d, d))
         else:
             sim = np.zeros(0)
     else:
         raise ValueError(f"unknown measure {measure!r}")
-    return PairTable(gi, pj, pf, sim, start, ng, npd)
+    start = np.searchsorted(pf, np.arange(len(ng) + 1)).astype(np.int64)
+    return PairTable(gi, pj, pf, lr, lc, sim, start, ng, npd)

@@ -26,8 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from seawatch.eval.frames import align, pair_table
-from seawatch.eval.matching import EPS, assign_frames, check_unique_ids, relabel
+from seawatch.eval.matching import EPS, assign_frames, prepare
 
 __all__ = ["hota", "identity_metrics", "ALPHAS"]
 
@@ -55,9 +54,9 @@ def hota(gt, pred, alphas=None, frames=None) -> dict:
         (``alpha, HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr, TP, FN, FP``).
     """
     alphas = ALPHAS if alphas is None else np.asarray(alphas, dtype=float)
-    g, p = align(gt, pred, frames)
-    check_unique_ids(g.fidx, g.ids, "ground truth", g.frames)
-    check_unique_ids(p.fidx, p.ids, "predictions", p.frames)
+    prep = prepare(gt, pred, frames)
+    g, p = prep.g, prep.p
+    gid, n_gid, pid, n_pid = prep.ids()
     na = len(alphas)
     n_gt, n_pred = len(g), len(p)
     tp = np.zeros(na)
@@ -68,9 +67,7 @@ def hota(gt, pred, alphas=None, frames=None) -> dict:
     ass_re = np.zeros(na)
     ass_pr = np.zeros(na)
     if n_gt and n_pred:
-        pt = pair_table(g, p)
-        gid, n_gid = relabel(g.ids)
-        pid, n_pid = relabel(p.ids)
+        pt = prep.pt
         sim = pt.sim
         # potential matches: IoU normalised by row and column sums of its frame
         row_sum = np.bincount(pt.gi, weights=sim, minlength=n_gt)
@@ -134,16 +131,16 @@ def identity_metrics(gt, pred, iou: float = 0.5, frames=None) -> dict:
     dict with ``IDF1, IDP, IDR, IDTP, IDFP, IDFN, n_gt, n_pred`` and ``assignment``
     (``(K, 2)`` array of matched ``(gt id, pred id)``).
     """
-    g, p = align(gt, pred, frames)
-    check_unique_ids(g.fidx, g.ids, "ground truth", g.frames)
-    check_unique_ids(p.fidx, p.ids, "predictions", p.frames)
+    if not 0.0 < iou <= 1.0:
+        raise ValueError(f"identity_metrics: iou must be in (0, 1], got {iou}")
+    prep = prepare(gt, pred, frames)
+    g, p = prep.g, prep.p
+    gid, n_gid, pid, n_pid = prep.ids()
     n_gt, n_pred = len(g), len(p)
     idtp = 0.0
     assignment = np.zeros((0, 2), np.int64)
     if n_gt and n_pred:
-        pt = pair_table(g, p)
-        gid, n_gid = relabel(g.ids)
-        pid, n_pid = relabel(p.ids)
+        pt = prep.pt
         hit = pt.sim >= iou
         key = gid[pt.gi[hit]] * n_pid + pid[pt.pj[hit]]
         if len(key):

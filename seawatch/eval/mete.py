@@ -27,21 +27,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from seawatch.eval.frames import align, pair_table
-from seawatch.eval.matching import assign_frames, relabel
+from seawatch.eval.matching import prepare, relabel
 
 __all__ = ["mete", "melt", "TAUS"]
 
 #: Default accuracy levels of MELT: 0, 0.05, ..., 1.
 TAUS = np.round(np.linspace(0.0, 1.0, 21), 10)
-
-
-def _assigned_overlap(g, p):
-    """Per-frame optimal assignment on 1 - IoU; returns pair table and assigned pair indices."""
-    pt = pair_table(g, p)
-    # maximising summed IoU over min(n, m) pairs = minimising summed (1 - IoU)
-    q = assign_frames(pt, pt.sim, keep_positive=False)
-    return pt, q
 
 
 def mete(gt, pred, frames=None) -> dict:
@@ -62,12 +53,14 @@ def mete(gt, pred, frames=None) -> dict:
         ``frames``, ``per_frame``, ``accuracy_per_frame``, ``cardinality_per_frame`` arrays,
         ``n_gt_per_frame``, ``n_pred_per_frame``.
     """
-    g, p = align(gt, pred, frames)
-    pt, q = _assigned_overlap(g, p)
+    prep = prepare(gt, pred, frames)
+    g, p, pt = prep.g, prep.p, prep.pt
+    q = prep.max_overlap()
     n = g.counts.astype(float)
     m = p.counts.astype(float)
     nf = g.n_frames
-    acc = np.bincount(pt.pf[q], weights=1.0 - pt.sim[q], minlength=nf)
+    # assigned pairs cost 1 - IoU; the min(n, m) - |q_k| assigned cells without overlap cost 1
+    acc = np.minimum(n, m) - np.bincount(pt.pf[q], weights=pt.sim[q], minlength=nf)
     card = np.abs(n - m)
     denom = np.maximum(n, m)
     safe = np.where(denom > 0, denom, 1.0)
@@ -110,8 +103,9 @@ def melt(gt, pred, taus=None, frames=None) -> dict:
         ground truth with its assigned estimate).
     """
     taus = TAUS if taus is None else np.asarray(taus, dtype=float)
-    g, p = align(gt, pred, frames)
-    pt, q = _assigned_overlap(g, p)
+    prep = prepare(gt, pred, frames)
+    g, pt = prep.g, prep.pt
+    q = prep.max_overlap()
     overlap = np.zeros(len(g))
     overlap[pt.gi[q]] = pt.sim[q]
     gid, n_gid = relabel(g.ids)

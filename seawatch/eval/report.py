@@ -17,7 +17,7 @@ import numpy as np
 
 from seawatch.eval.clear import clear_mot
 from seawatch.eval.detection import detection_metrics
-from seawatch.eval.frames import align
+from seawatch.eval.matching import prepare
 from seawatch.eval.hota import hota, identity_metrics
 from seawatch.eval.mete import melt, mete
 from seawatch.eval.ospa import gospa, ospa
@@ -50,19 +50,19 @@ def evaluate(gt, pred, iou: float = 0.5, frames=None, ospa_cutoff_m: float = 50.
     ``identity``, ``mete``, ``melt``, ``ospa``, ``gospa`` (absent when not applicable), ``frames``,
     ``n_frames`` and ``summary`` (the headline figures, flat).
     """
-    g, p = align(gt, pred, frames)
-    axis = g.frames
+    prep = prepare(gt, pred, frames)  # flattened, paired and matched once for all metrics
+    axis = prep.g.frames
     res: dict = {"iou": float(iou), "frames": axis, "n_frames": int(len(axis))}
-    res["detection"] = detection_metrics(g, p, iou=iou)
-    res["mete"] = mete(g, p)
+    res["detection"] = detection_metrics(prep, None, iou=iou)
+    res["mete"] = mete(prep, None)
     tracked = _has_ids(gt) and _has_ids(pred)
     if tracked:
-        res["clear_motchallenge"] = clear_mot(g, p, iou=iou, variant="motchallenge")
-        res["clear_vace"] = clear_mot(g, p, iou=iou, variant="vace")
-        res["hota"] = hota(g, p)
-        res["identity"] = identity_metrics(g, p, iou=iou)
+        res["clear_motchallenge"] = clear_mot(prep, None, iou=iou, variant="motchallenge")
+        res["clear_vace"] = clear_mot(prep, None, iou=iou, variant="vace")
+        res["hota"] = hota(prep, None)
+        res["identity"] = identity_metrics(prep, None, iou=iou)
     if _has_ids(gt):
-        res["melt"] = melt(g, p)
+        res["melt"] = melt(prep, None)
     gw, pw = getattr(gt, "world", None), getattr(pred, "world", None)
     if gw is not None and pw is not None:
         gpts = {k: v for k, v in gt.per_frame(world=True).items()}
