@@ -61,7 +61,7 @@ DETECTORS: dict[str, str] = {
 }
 TRACKERS: dict[str, str] = {
     "sort": "seawatch.track.sort:SortTracker",
-    "ptracking": "seawatch.track.ptracking:PTracker",
+    "ptracking": "seawatch.track.ptracking:PTrackingTracker",
     "stable_features": "seawatch.track.feature_clusters:StableFeatureTracker",
 }
 JOINT = {"stable_features"}  # kinds that detect and track at once (DetectorTracker)
@@ -114,8 +114,12 @@ def _resolve(kind: str, registry: dict[str, str], what: str):
 
 def _construct(cls, config: Config, fps: float, camera):
     """``cls.from_config(config, fps=..., camera=...)`` (passing only the keywords it accepts),
-    else ``cls()``."""
+    else ``cls.from_settings(section)`` (the tracker section for a kind that is a tracker, else
+    the detector section), else ``cls()``."""
     if not hasattr(cls, "from_config"):
+        if hasattr(cls, "from_settings"):
+            kind = getattr(cls, "name", "")
+            return cls.from_settings(config.tracker if kind in TRACKERS else config.detector)
         return cls()
     kwargs = {"fps": fps, "camera": camera}
     try:

@@ -349,3 +349,23 @@ def test_missing_ais_file_and_bad_url_raise_naming_them(tmp_path, scene):
         run_pipeline(video, _cfg(), out_dir=tmp_path / "o", ais=tmp_path / "none.nmea")
     with pytest.raises(SourceError, match="udp://nohost"):
         run_pipeline(video, _cfg(), out_dir=tmp_path / "o", ais="udp://nohost")
+
+
+@pytest.mark.parametrize("registry_name", ["DETECTORS", "TRACKERS"])
+def test_registry_entries_name_their_kind(registry_name):
+    import importlib
+
+    import seawatch.pipeline as pl
+
+    registry = getattr(pl, registry_name)
+    for kind, target in registry.items():
+        modname, clsname = target.split(":")
+        try:
+            mod = importlib.import_module(modname)
+        except ImportError:
+            continue  # a stage that has not landed yet
+        cls = getattr(mod, clsname, None)
+        assert cls is not None, f"{target} missing"
+        assert cls.name == kind
+        stage = getattr(cls, "detect", None) or getattr(cls, "update", None) or getattr(cls, "process", None)
+        assert callable(stage)
