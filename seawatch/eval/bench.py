@@ -134,22 +134,57 @@ def discover(root: Path | None = None) -> dict[str, Any]:
 def _fmt(v: Any) -> str:
     if v is None:
         return "n/a"
+    if isinstance(v, bool):
+        return str(v)
+    if isinstance(v, float) and math.isfinite(v) and v == int(v) and abs(v) < 1e9:
+        return str(int(v))
     if isinstance(v, float):
+        if math.isnan(v):
+            return "n/a"
         if v == 0 or 0.001 <= abs(v) < 100000:
             return f"{v:.4g}" if abs(v) < 10 else f"{v:.1f}"
         return f"{v:.3g}"
     return str(v)
 
 
+def _ref(r: dict[str, Any]) -> str:
+    """The comparison figure of a row: its ``ref`` (a paper's figure), else its ``target``."""
+    ref, target = r.get("ref"), r.get("target")
+    if ref not in (None, ""):
+        return _fmt(ref) if isinstance(ref, (int, float)) else str(ref)
+    if target not in (None, ""):
+        return "target " + (_fmt(target) if isinstance(target, (int, float)) else str(target))
+    return ""
+
+
 def format_table(rows: list[dict[str, Any]]) -> str:
-    """A plain-text table of recorded figures."""
+    """A plain-text table of recorded figures, one block per benchmark.
+
+    Columns: benchmark, dataset, method, metric, value, unit, and ``ref`` (the row's ``ref``
+    figure, e.g. the paper's, or else its ``target``).  Values are right-aligned; whole numbers
+    print without decimals.
+    """
     cols = ["benchmark", "dataset", "method", "metric", "value", "unit", "ref"]
-    body = [[_fmt(r.get(c, "")) if c in ("value", "ref") else str(r.get(c, "")) for c in cols] for r in rows]
-    widths = [max(len(c), *(len(b[i]) for b in body)) if body else len(c) for i, c in enumerate(cols)]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(cols, widths))]
-    lines.append("  ".join("-" * w for w in widths))
+    if not rows:
+        return "(no figures recorded)"
+    body = []
+    for r in rows:
+        body.append([str(r.get("benchmark", "")), str(r.get("dataset", "")), str(r.get("method", "")),
+                     str(r.get("metric", "")), _fmt(r.get("value")), str(r.get("unit", "") or ""), _ref(r)])
+    widths = [max(len(c), *(len(b[i]) for b in body)) for i, c in enumerate(cols)]
+    right = {cols.index("value")}
+
+    def line(cells):
+        return "  ".join(x.rjust(w) if i in right else x.ljust(w)
+                         for i, (x, w) in enumerate(zip(cells, widths))).rstrip()
+
+    lines = [line(cols), "  ".join("-" * w for w in widths)]
+    prev = None
     for b in body:
-        lines.append("  ".join(x.ljust(w) for x, w in zip(b, widths)))
+        if prev is not None and b[0] != prev:
+            lines.append("")
+        prev = b[0]
+        lines.append(line(b))
     return "\n".join(lines)
 
 
