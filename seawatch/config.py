@@ -106,6 +106,8 @@ class FusionSettings:
     sigma_el_deg: float = 0.3
     sigma_rate_dps: float = 0.05
     pos_sigma_m: float = 10.0
+    range_frac: float = 0.3  # tolerated relative range error (waterline elevation)
+    rate_box_frac: float = 0.05  # box jitter in the rates: fraction of the box's angular size per second
     gate_sigma: float = 3.0
     min_support_s: float = 2.0
     min_llr: float = 1.0

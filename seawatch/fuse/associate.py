@@ -18,13 +18,26 @@ from scipy.optimize import linear_sum_assignment
 
 from seawatch.fuse.table import TargetStates
 
-__all__ = ["TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
+__all__ = ["index_of", "TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
            "angle_diff_deg", "WindowAssociator"]
+
+
+def index_of(keys: np.ndarray, query) -> np.ndarray:
+    """Position of each ``query`` value in ``keys`` (unique values), -1 where absent."""
+    keys = np.asarray(keys, np.int64)
+    q = np.asarray(query, np.int64)
+    if len(keys) == 0:
+        return np.full(q.shape, -1, np.int64)
+    order = np.argsort(keys, kind="stable")
+    sk = keys[order]
+    pos = np.clip(np.searchsorted(sk, q), 0, len(sk) - 1)
+    return np.where(sk[pos] == q, order[pos], -1)
 
 
 def angle_diff_deg(a, b) -> np.ndarray:
     """Signed smallest difference ``a - b`` of angles in degrees, in [-180, 180)."""
-    return (np.asarray(a, float) - np.asarray(b, float) + 180.0) % 360.0 - 180.0
+    d = np.asarray(a, float) - np.asarray(b, float)
+    return d - 360.0 * np.floor(d / 360.0 + 0.5)
 
 
 @dataclass
@@ -39,6 +52,8 @@ class TrackAngles:
     range_m: np.ndarray  # from the waterline, NaN above the horizon
     e_m: np.ndarray
     n_m: np.ndarray
+    half_height_deg: np.ndarray | None = None
+    rate_valid: np.ndarray | None = None  # False where the track's velocity is not yet meaningful
 
 
 @dataclass
@@ -54,7 +69,8 @@ class TargetAngles:
 
 
 def track_angles(camera, boxes: np.ndarray, velocities_px_s: np.ndarray | None = None,
-                 pan_offset_deg: float = 0.0, tilt_offset_deg: float = 0.0) -> TrackAngles:
+                 pan_offset_deg: float = 0.0, tilt_offset_deg: float = 0.0,
+                 ages_s: np.ndarray | None = None, min_rate_age_s: float = 1.0) -> TrackAngles:
     """Angles of camera tracks from their boxes through a camera model.
 
     Parameters
@@ -64,23 +80,36 @@ def track_angles(camera, boxes: np.ndarray, velocities_px_s: np.ndarray | None =
     velocities_px_s : (N, 2) box-centre velocity, px/s (zeros when None).
     pan_offset_deg, tilt_offset_deg : float
         Calibration offsets added to the measured azimuth and elevation (true minus nominal).
+    ages_s : (N,) track ages; the rates of tracks younger than ``min_rate_age_s`` (or all, when
+        there is no velocity) are marked not valid.
     """
     b = np.asarray(boxes, float).reshape(-1, 4)
     n = len(b)
     vel = np.zeros((n, 2)) if velocities_px_s is None else np.asarray(velocities_px_s, float).reshape(-1, 2)
     u = b[:, 0] + b[:, 2] / 2
     v = b[:, 1] + b[:, 3]
-    uu = np.concatenate([u, b[:, 0], b[:, 0] + b[:, 2], u + vel[:, 0]])
-    vv = np.concatenate([v, v, v, v + vel[:, 1]])
+    uu = np.concatenate([u, b[:, 0], b[:, 0] + b[:, 2], u + vel[:, 0], u])
+    vv = np.concatenate([v, v, v, v + vel[:, 1], b[:, 1]])
     az, el = camera.pixel_to_azel(uu, vv)
     az0, el0 = az[:n], el[:n]
     half = 0.5 * np.abs(angle_diff_deg(az[2 * n:3 * n], az[n:2 * n]))
-    az_rate = angle_diff_deg(az[3 * n:], az0)
-    el_rate = el[3 * n:] - el0
+    half_h = 0.5 * np.abs(el[4 * n:] - el0)
+    az_rate = angle_diff_deg(az[3 * n:4 * n], az0)
+    el_rate = el[3 * n:4 * n] - el0
+    if velocities_px_s is None:
+        valid = np.zeros(n, bool)
+    elif ages_s is None:
+        valid = np.ones(n, bool)
+    else:
+        a = np.asarray(ages_s, float).reshape(-1)
+        moving = np.any(vel != 0, axis=1)
+        # age 0 with a velocity: a tracker that does not report ages
+        valid = (a >= min_rate_age_s) | ((a == 0) & moving)
     tc = camera if (pan_offset_deg == 0 and tilt_offset_deg == 0) else camera.with_pose(
         pan_deg=camera.pose.pan_deg + pan_offset_deg, tilt_deg=camera.pose.tilt_deg + tilt_offset_deg)
     e, nn, rng = tc.pixel_to_sea_enu(u, v)
-    return TrackAngles((az0 + pan_offset_deg) % 360.0, el0 + tilt_offset_deg, half, az_rate, el_rate, rng, e, nn)
+    return TrackAngles((az0 + pan_offset_deg) % 360.0, el0 + tilt_offset_deg, half, az_rate, el_rate, rng, e, nn,
+                       half_h, valid)
 
 
 def target_angles(states: TargetStates, e0_m: float, n0_m: float, height_m: float, r_eff_m: float) -> TargetAngles:
@@ -113,30 +142,47 @@ def pair_distance2(
     sigma_az_deg: float = 0.5,
     sigma_el_deg: float = 0.3,
     sigma_rate_dps: float = 0.05,
-    pos_sigma_m: float = 10.0,
+    pos_sigma_m: float | np.ndarray = 10.0,
     speed_sigma_frac: float = 0.1,
+    range_frac: float = 0.3,
+    rate_box_frac: float = 0.05,
+    gate_deg: float = np.inf,
 ) -> np.ndarray:
     """Normalised squared distance between every camera track and every target, (N, M).
 
-    Azimuth: distance from the target's azimuth to the track box's azimuth interval (the AIS
-    antenna can be anywhere on the hull, and the box covers the hull).  Elevation: waterline
-    elevation.  Motion: azimuth and elevation rates.  Target position uncertainty grows with
-    report age and speed (``pos_sigma_m + speed_sigma_frac * speed * age``) and is converted
-    into angles at the target's range.
+    * Azimuth: distance from the target's azimuth to the track box's azimuth interval (the AIS
+      antenna can be anywhere on the hull, and the box covers the hull); ``sigma_az_deg`` plus
+      the target's position uncertainty seen at its range.
+    * Elevation of the waterline: ``sigma_el_deg`` plus ``range_frac`` of the target's depression
+      angle (a relative range error, e.g. the waterline hidden by the bow wave or a camera tilt
+      error shows up as a proportional elevation error) plus the position uncertainty.
+    * Motion: azimuth and elevation rates, with ``sigma_rate_dps`` plus a quarter of the target's
+      rate plus ``rate_box_frac`` of the box's angular size per second (box jitter); left out for
+      tracks whose rate is not valid (just born).
+
+    Target position uncertainty grows with report age and speed
+    (``pos_sigma_m + speed_sigma_frac * speed * age``).  Pairs whose azimuth distance (beyond the
+    box) exceeds ``gate_deg`` get ``inf``.
     """
     daz = np.abs(angle_diff_deg(trk.az_deg[:, None], tgt.az_deg[None, :]))
     daz = np.maximum(daz - trk.half_width_deg[:, None], 0.0)
     pos_sig = pos_sigma_m + speed_sigma_frac * speed_mps * age_s
     rng = np.maximum(tgt.range_m, 1.0)
     s_az2 = sigma_az_deg ** 2 + np.degrees(pos_sig / rng) ** 2
-    s_el2 = sigma_el_deg ** 2 + (tgt.del_dr * pos_sig) ** 2
+    s_el2 = sigma_el_deg ** 2 + (range_frac * tgt.el_deg) ** 2 + (tgt.del_dr * pos_sig) ** 2
     del_ = trk.el_deg[:, None] - tgt.el_deg[None, :]
-    s_rate = sigma_rate_dps + 0.25 * np.abs(tgt.az_rate_dps)
-    drate = trk.az_rate_dps[:, None] - tgt.az_rate_dps[None, :]
-    s_erate = sigma_rate_dps * 0.5 + 0.25 * np.abs(tgt.el_rate_dps)
-    derate = trk.el_rate_dps[:, None] - tgt.el_rate_dps[None, :]
     d2 = daz * daz / s_az2[None, :] + del_ * del_ / s_el2[None, :]
-    d2 += (drate / s_rate[None, :]) ** 2 + (derate / s_erate[None, :]) ** 2
+    hh = trk.half_height_deg if trk.half_height_deg is not None else 0.5 * trk.half_width_deg
+    s_rate = sigma_rate_dps + 0.25 * np.abs(tgt.az_rate_dps)[None, :] + (2 * rate_box_frac * trk.half_width_deg)[:, None]
+    drate = trk.az_rate_dps[:, None] - tgt.az_rate_dps[None, :]
+    s_erate = 0.5 * sigma_rate_dps + 0.25 * np.abs(tgt.el_rate_dps)[None, :] + (2 * rate_box_frac * hh)[:, None]
+    derate = trk.el_rate_dps[:, None] - tgt.el_rate_dps[None, :]
+    motion = (drate / s_rate) ** 2 + (derate / s_erate) ** 2
+    if trk.rate_valid is not None:
+        motion *= trk.rate_valid[:, None]
+    d2 += motion
+    if np.isfinite(gate_deg):
+        d2[daz > gate_deg] = np.inf
     return d2
 
 
@@ -178,6 +224,9 @@ class WindowAssociator:
         self.observed_s = np.zeros(16)
         self.assigned: dict[int, int] = {}  # track id -> target key
         self.t_last: float | None = None
+        self._last_forget = -np.inf
+        self._last_ids = None
+        self._last_keys = None
         self._free_rows: list[int] = []
         self._free_cols: list[int] = []
         self._nr = 0
@@ -225,6 +274,8 @@ class WindowAssociator:
         return c
 
     def _forget(self, t_s: float) -> None:
+        self._last_ids = None
+        self._last_keys = None
         for tid, r in list(self.rows.items()):
             if t_s - self.row_seen[r] > self.forget_s:
                 del self.rows[tid]
@@ -268,21 +319,31 @@ class WindowAssociator:
             self.S[:nr, :nc] *= decay
             self.W[:nr] *= decay
         w = max(dt, 1e-3) / self.window_s  # weight of this frame's evidence
-        rows = np.fromiter((self._row(int(t)) for t in track_ids), np.int64, n)
-        cols = np.fromiter((self._col(int(k)) for k in target_keys), np.int64, m)
+        if self._last_ids is not None and np.array_equal(track_ids, self._last_ids[0]):
+            rows = self._last_ids[1]
+        else:
+            rows = np.fromiter((self._row(int(t)) for t in track_ids), np.int64, n)
+            self._last_ids = (track_ids.copy(), rows)
+        if self._last_keys is not None and np.array_equal(target_keys, self._last_keys[0]):
+            cols = self._last_keys[1]
+        else:
+            cols = np.fromiter((self._col(int(k)) for k in target_keys), np.int64, m)
+            self._last_keys = (target_keys.copy(), cols)
         self.row_seen[rows] = t_s
         self.col_seen[cols] = t_s
         self.observed_s[rows] += dt if dt > 0 else 0.0
         g2 = self.gate * self.gate
         if n:
-            llr = 0.5 * (g2 - np.minimum(d2, 2 * g2)) if m else np.zeros((n, 0))
-            # targets absent this frame count as misses for these tracks
-            base = -0.5 * g2 * w
-            self.S[rows, : self._nc] += base
+            # every known target counts as a miss for these tracks, present ones add their llr
+            delta = np.full(self._nc, -0.5 * g2 * w)
+            delta = np.broadcast_to(delta, (n, self._nc)).copy()
             if m:
-                self.S[np.ix_(rows, cols)] += (llr - (-0.5 * g2)) * w
+                delta[:, cols] += 0.5 * (g2 - np.minimum(d2, 2 * g2)) * w + 0.5 * g2 * w
+            self.S[rows, : self._nc] += delta
             self.W[rows] += w
-        self._forget(t_s)
+        if t_s - self._last_forget >= 1.0 or t_s < self._last_forget:
+            self._forget(t_s)
+            self._last_forget = t_s
         out = np.zeros(n, np.int64)
         conf = np.full(n, np.nan)
         if n == 0 or m == 0:
@@ -295,11 +356,13 @@ class WindowAssociator:
         if eligible is not None:
             ok &= np.asarray(eligible, bool)[:, None]
         score = np.where(ok, mean, -1e9)
-        key_index = {int(k): j for j, k in enumerate(target_keys.tolist())}
-        for i, tid in enumerate(track_ids.tolist()):
-            k = self.assigned.get(tid)
-            if k is not None and k in key_index and ok[i, key_index[k]]:
-                score[i, key_index[k]] += self.switch_margin
+        if self.assigned:
+            prev = np.array([self.assigned.get(tid, -1) for tid in track_ids.tolist()], np.int64)
+            jj = index_of(target_keys, prev)
+            ii = np.flatnonzero(jj >= 0)
+            jj = jj[ii]
+            bonus = ok[ii, jj]
+            score[ii[bonus], jj[bonus]] += self.switch_margin
         ri, ci = linear_sum_assignment(-score)
         good = score[ri, ci] > -1e8
         ri, ci = ri[good], ci[good]

@@ -16,6 +16,7 @@ from seawatch.fuse.associate import (
     TrackAngles,
     WindowAssociator,
     angle_diff_deg,
+    index_of,
     pair_distance2,
     target_angles,
     track_angles,
@@ -26,6 +27,12 @@ from seawatch.types import AISReport, Frame, FusedTrack, Tracks, TrackState
 
 __all__ = ["Fuser", "Calibration"]
 
+
+
+def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
+    o = np.argsort(x)
+    cw = np.cumsum(w[o])
+    return float(x[o][np.searchsorted(cw, 0.5 * cw[-1])])
 
 
 class Calibration:
@@ -48,12 +55,14 @@ class Calibration:
         self.pan_sigma_deg = float("nan")
         self.tilt_sigma_deg = float("nan")
 
-    def add(self, t_s: float, pair: tuple[int, int], daz_deg: float, del_deg: float) -> None:
+    def add(self, t_s: float, pair: tuple[int, int], daz_deg: float, del_deg: float,
+            w_az: float = 1.0, w_el: float = 1.0) -> None:
+        """Add one sample (weights: inverse variances of the azimuth and elevation residuals)."""
         last = self._last.get(pair)
         if last is not None and t_s - last < self.interval_s:
             return
         self._last[pair] = t_s
-        self.samples.append((daz_deg, del_deg))
+        self.samples.append((daz_deg, del_deg, w_az, w_el))
 
     def estimate(self) -> bool:
         """Recompute the offsets; returns True when they are set (enough samples)."""
@@ -61,12 +70,16 @@ class Calibration:
         if n < self.min_samples:
             return False
         a = np.asarray(self.samples)
-        med = np.median(a, axis=0)
-        mad = np.median(np.abs(a - med), axis=0)
-        se = 1.2533 * 1.4826 * np.maximum(mad, 1e-3) / math.sqrt(n)
-        self.pan_offset_deg = float(np.clip(med[0], -self.max_offset_deg, self.max_offset_deg))
-        self.tilt_offset_deg = float(np.clip(med[1], -self.max_offset_deg, self.max_offset_deg))
-        self.pan_sigma_deg, self.tilt_sigma_deg = float(se[0]), float(se[1])
+        out = []
+        for x, w in ((a[:, 0], a[:, 2]), (a[:, 1], a[:, 3])):
+            med = _weighted_median(x, w)
+            mad = _weighted_median(np.abs(x - med), w)
+            n_eff = w.sum() ** 2 / np.sum(w * w)
+            out.append((med, 1.2533 * 1.4826 * max(mad, 1e-3) / math.sqrt(n_eff)))
+        (mp, sp), (mt, stt) = out
+        self.pan_offset_deg = float(np.clip(mp, -self.max_offset_deg, self.max_offset_deg))
+        self.tilt_offset_deg = float(np.clip(mt, -self.max_offset_deg, self.max_offset_deg))
+        self.pan_sigma_deg, self.tilt_sigma_deg = float(sp), float(stt)
         return True
 
     def as_dict(self) -> dict:
@@ -142,6 +155,9 @@ class Fuser:
         self._theta_pairs: deque = deque(maxlen=600)
         self._theta_frames: deque = deque(maxlen=60)
         self._theta_last_t = -np.inf
+        self._calib_last_t = -np.inf
+        self._track_pos: dict[int, deque] = {}
+        self._vel_cache: dict = {}
         self._feed = _AISFeed()
         self._radar: np.ndarray | None = None
         self._radar_i = 0
@@ -161,7 +177,7 @@ class Fuser:
         self.n_updates = 0
         self.n_alerts: dict[str, int] = {"no_ais": 0, "ais_not_seen": 0, "possible_spoofing": 0}
         self._t_prev: float | None = None
-        self.last_picture: list[FusedTrack] = []
+        self._last = None
         if ais is not None:
             self.add_ais(ais)
         if radar is not None:
@@ -265,7 +281,8 @@ class Fuser:
         n = len(tracks)
         ids = tracks.ids
         confirmed = tracks.states != int(TrackState.TENTATIVE)
-        ta = track_angles(cam, tracks.boxes, tracks.velocities, self.calib.pan_offset_deg, self.calib.tilt_offset_deg)
+        ta = track_angles(cam, tracks.boxes, tracks.velocities, self.calib.pan_offset_deg, self.calib.tilt_offset_deg,
+                          tracks.ages_s)
         # --- AIS
         st, tg, d2 = self._candidates(self.ais, t_ais, cam, ta)
         keys, conf = self.assoc.update(t_ais, ids, st.keys, d2, eligible=confirmed)
@@ -278,20 +295,18 @@ class Fuser:
         # --- calibration from confident, unambiguous matches
         if s.self_calibrate and n and len(st):
             self._calibrate(t_ais, ids, ta, st, tg, d2, keys, conf)
+        self._record_positions(t_ais, cam, tracks)
         self._theta_update(t_ais, cam, tracks, ta, st, tg, d2, keys)
         # --- outputs
         out = tracks.subset(np.arange(n))
         out.mmsi = keys.copy()
         world = self._world(cam, ta, st, tg, keys, vst, vkeys, tracks)
         out.world = world
-        names = []
-        for k in keys.tolist():
-            names.append(self.ais.names[self.ais.slot(k)] if k else None)
-        out.names = names
+        out.names = [self.ais.names[self.ais.slot(k)] if k else None for k in keys.tolist()]
         alerts: list[Alert] = []
         if s.alerts:
             alerts = self._alerts(t, t_ais, dt, cam, tracks, ta, st, tg, d2, keys, vkeys, world)
-        self.last_picture = self._picture(t, t_ais, out, keys, st, vst, vkeys)
+        self._last = (t, t_ais, out, keys, vst, vkeys)
         return out, alerts
 
     def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
@@ -311,31 +326,34 @@ class Fuser:
             return st, tg, np.zeros((len(ta.az_deg), len(st)))
         sp = st.speed_mps
         d2 = pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
-                            s.pos_sigma_m + sp * s.ais_latency_s)
-        # hard azimuth gate (box interval plus gate_deg)
-        daz = np.abs(angle_diff_deg(ta.az_deg[:, None], tg.az_deg[None, :])) - ta.half_width_deg[:, None]
-        d2 = np.where(daz > s.gate_deg, np.inf, d2)
+                            s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
+                            rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
         return st, tg, d2
 
     def _calibrate(self, t_ais, ids, ta, st, tg, d2, keys, conf) -> None:
         s = self.settings
+        if t_ais - self._calib_last_t < 0.5 and t_ais >= self._calib_last_t:
+            return
+        self._calib_last_t = t_ais
         g2 = s.gate_sigma ** 2
-        col = {int(k): j for j, k in enumerate(st.keys.tolist())}
-        for i, k in enumerate(keys.tolist()):
-            if not k or not (conf[i] > 0.5 * g2 * 0.6):
-                continue
-            j = col.get(k)
-            if j is None:
-                continue
-            row = np.sort(d2[i])
-            colv = np.sort(d2[:, j])
-            # unambiguous: the runner-up (in both directions) is far worse
-            if (len(row) > 1 and row[1] < 4 * g2) or (len(colv) > 1 and colv[1] < 4 * g2):
-                continue
-            raw_az = ta.az_deg[i] - self.calib.pan_offset_deg
-            raw_el = ta.el_deg[i] - self.calib.tilt_offset_deg
-            self.calib.add(t_ais, (int(ids[i]), int(k)), float(angle_diff_deg(tg.az_deg[j], raw_az)),
-                           float(tg.el_deg[j] - raw_el))
+        jj = index_of(st.keys, keys)
+        ii = np.flatnonzero((keys > 0) & (jj >= 0) & (conf > 0.3 * g2))
+        if not len(ii):
+            return
+        jj = jj[ii]
+        # unambiguous: no runner-up within twice the gate, in either direction
+        near = d2 < 4 * g2
+        ok = (near[ii].sum(axis=1) == 1) & (near[:, jj].sum(axis=0) == 1)
+        ii, jj = ii[ok], jj[ok]
+        raw_az = ta.az_deg[ii] - self.calib.pan_offset_deg
+        raw_el = ta.el_deg[ii] - self.calib.tilt_offset_deg
+        daz = angle_diff_deg(tg.az_deg[jj], raw_az)
+        del_ = tg.el_deg[jj] - raw_el
+        w_az = 1.0 / (s.sigma_az_deg ** 2 + ta.half_width_deg[ii] ** 2)
+        w_el = 1.0 / (s.sigma_el_deg ** 2 + (s.range_frac * tg.el_deg[jj]) ** 2)
+        for c, i in enumerate(ii.tolist()):
+            self.calib.add(t_ais, (int(ids[i]), int(keys[i])), float(daz[c]), float(del_[c]), float(w_az[c]),
+                           float(w_el[c]))
         self.calib.estimate()
 
     def _ground_velocity(self, cam, tracks: Tracks) -> np.ndarray:
@@ -348,12 +366,54 @@ class Fuser:
         m = len(u)
         return np.stack([e[m:] - e[:m], nn[m:] - nn[:m]], axis=1)
 
+    def _record_positions(self, t_ais, cam, tracks: Tracks) -> None:
+        """Keep each track's waterline sea position (nominal camera frame) for its velocity."""
+        if len(tracks) == 0:
+            return
+        b = tracks.boxes
+        e, nn, _ = cam.pixel_to_sea_enu(b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3])
+        for tid, ee, en in zip(tracks.ids.tolist(), e.tolist(), nn.tolist()):
+            h = self._track_pos.get(tid)
+            if h is None:
+                h = self._track_pos[tid] = deque(maxlen=64)
+            if math.isfinite(ee) and math.isfinite(en) and (not h or t_ais - h[-1][0] >= 0.2):
+                h.append((t_ais, ee, en))
+        if len(self._track_pos) > 4 * max(len(tracks), 16):
+            live = set(tracks.ids.tolist())
+            for tid in [k for k, h in self._track_pos.items() if k not in live and (not h or t_ais - h[-1][0] > 60)]:
+                del self._track_pos[tid]
+
+    def track_velocity(self, tid: int, t_s: float | None = None, window_s: float | None = None) -> np.ndarray:
+        """Least-squares sea-surface velocity (east, north) m/s of a camera track over the last
+        ``window_s`` (default ``fusion.window_s``), in the nominal camera frame; NaN when the
+        track has fewer than 3 positions spanning 2 s."""
+        h = self._track_pos.get(int(tid))
+        if not h:
+            return np.full(2, np.nan)
+        key = (int(tid), window_s)
+        hit = self._vel_cache.get(key)
+        if hit is not None and t_s is not None and 0 <= t_s - hit[0] < 1.0:
+            return hit[1]
+        a = np.asarray(h)
+        t_end = a[-1, 0] if t_s is None else t_s
+        a = a[a[:, 0] >= t_end - (self.settings.window_s if window_s is None else window_s)]
+        if len(a) < 3 or a[-1, 0] - a[0, 0] < 2.0:
+            return np.full(2, np.nan)
+        tt = a[:, 0] - a[:, 0].mean()
+        den = float(np.sum(tt * tt))
+        vel = np.array([np.sum(tt * (a[:, 1] - a[:, 1].mean())) / den, np.sum(tt * (a[:, 2] - a[:, 2].mean())) / den])
+        if t_s is not None:
+            if len(self._vel_cache) > 4096:
+                self._vel_cache.clear()
+            self._vel_cache[key] = (t_s, vel)
+        return vel
+
     def _theta_update(self, t_ais, cam, tracks, ta, st, tg, d2, keys) -> None:
         """Collect velocity pairs for the paper's theta (rotation camera -> VTS/AIS frame)."""
         if len(tracks) == 0 or len(st) == 0 or t_ais - self._theta_last_t < 1.0:
             return
         self._theta_last_t = t_ais
-        cv = self._ground_velocity(cam, tracks)
+        cv = np.array([self.track_velocity(tid, t_ais) for tid in tracks.ids.tolist()]).reshape(-1, 2)
         ok = np.isfinite(cv).all(axis=1) & (tracks.states != int(TrackState.TENTATIVE))
         av = np.stack([st.ve_mps, st.vn_mps], axis=1)
         col = {int(k): j for j, k in enumerate(st.keys.tolist())}
@@ -393,14 +453,15 @@ class Fuser:
             if table_st is None or not np.any(kk):
                 continue
             col = {int(k): j for j, k in enumerate(table_st.keys.tolist())}
-            for i, k in enumerate(kk.tolist()):
-                j = col.get(k)
-                if not k or j is None:
-                    continue
-                r = math.hypot(table_st.e_m[j], table_st.n_m[j])
-                a = math.radians(ta.az_deg[i])
-                e[i], nn[i] = r * math.sin(a), r * math.cos(a)
-                sp[i], co[i] = table_st.speed_mps[j], table_st.course_deg[j]
+            ii = np.flatnonzero(kk)
+            jj = np.array([col.get(int(kk[i]), -1) for i in ii], np.int64)
+            ok = jj >= 0
+            ii, jj = ii[ok], jj[ok]
+            r = np.hypot(table_st.e_m[jj], table_st.n_m[jj])
+            a = np.radians(ta.az_deg[ii])
+            e[ii], nn[ii] = r * np.sin(a), r * np.cos(a)
+            sp[ii] = np.hypot(table_st.ve_mps[jj], table_st.vn_mps[jj])
+            co[ii] = np.degrees(np.arctan2(table_st.ve_mps[jj], table_st.vn_mps[jj])) % 360.0
         world = np.full((n, 4), np.nan)
         if n:
             ok = np.isfinite(e) & np.isfinite(nn)
@@ -453,7 +514,10 @@ class Fuser:
         Ids: camera tracks keep their id; AIS-only vessels have ``-mmsi``; radar-only tracks
         ``-(10**10 + radar id)``.
         """
-        return list(self.last_picture)
+        if self._last is None:
+            return []
+        t, t_ais, out, keys, vst, vkeys = self._last
+        return self._picture(t, t_ais, out, keys, None, vst, vkeys)
 
     # ----------------------------------------------------------------- alerts
     def _alerts(self, t, t_ais, dt, cam, tracks, ta, st, tg, d2, keys, vkeys, world) -> list[Alert]:
@@ -535,20 +599,30 @@ class Fuser:
         visible = (front & cam.in_image(u, v, margin_px=-10.0) & (tg.range_m <= s.max_visible_range_m)
                    & (tg.range_m < horizon_m) & (size_px >= s.min_visible_px))
         seen = {int(k) for k in keys.tolist() if k}
+        for k in seen:
+            self._unseen_alerted.discard(k)
         # occlusion: inside the azimuth extent of any camera track (a nearer vessel may hide it)
-        covered = np.zeros(len(st), bool)
-        if len(tracks):
+        cand = visible.copy()
+        if len(tracks) and cand.any():
             daz = np.abs(angle_diff_deg(tg.az_deg[None, :], ta.az_deg[:, None])) - ta.half_width_deg[:, None]
-            covered = (daz <= s.sigma_az_deg).any(axis=0)
-        gv = None
+            cand &= ~(daz <= s.sigma_az_deg).any(axis=0)
+        if seen and cand.any():
+            cand &= ~np.isin(st.keys, np.fromiter(seen, np.int64))
+        cj = np.flatnonzero(cand)
+        ckeys = st.keys[cj].tolist()
+        keep = set(ckeys)
+        for k in [k for k in self._unseen_since if k not in keep]:
+            del self._unseen_since[k]
+        if not len(cj):
+            return out
         unmatched = [i for i in range(len(tracks)) if confirmed[i] and not keys[i] and np.isfinite(ta.range_m[i])]
-        for j, k in enumerate(st.keys.tolist()):
-            k = int(k)
-            if k in seen or not visible[j] or covered[j]:
-                self._unseen_since.pop(k, None)
-                if k in seen:
-                    self._unseen_alerted.discard(k)
-                continue
+        cost = None
+        if unmatched:
+            # an unseen AIS vessel that moves like an unidentified camera vessel: position spoofed?
+            gv = np.array([self.track_velocity(int(tracks.ids[i]), t_ais) for i in unmatched]).reshape(-1, 2)
+            th = self.theta.theta_deg if np.isfinite(self.theta.theta_deg) else 0.0
+            cost = velocity_cost(np.nan_to_num(gv, nan=1e6), np.stack([st.ve_mps[cj], st.vn_mps[cj]], axis=1), th)
+        for c, (j, k) in enumerate(zip(cj.tolist(), ckeys)):
             since = self._unseen_since.setdefault(k, t)
             if t - since >= s.ais_unseen_dwell_s and k not in self._unseen_alerted:
                 self._unseen_alerted.add(k)
@@ -558,28 +632,24 @@ class Fuser:
                 msg = (f"AIS not seen: {label} reported {tg.range_m[j]:.0f} m away at bearing {tg.az_deg[j]:.1f} deg, "
                        f"inside the camera view, not seen for {t - since:.0f} s")
                 out.append(self._alert(t, "ais_not_seen", msg, None, k, float(lat), float(lon), tg.az_deg[j]))
-            # an unseen AIS vessel that moves like an unidentified camera vessel: position spoofed?
-            if unmatched and st.speed_mps[j] >= 1.0 and t - since >= 0:
-                if gv is None:
-                    gv = self._ground_velocity(cam, tracks)
-                th = self.theta.theta_deg if np.isfinite(self.theta.theta_deg) else 0.0
-                cost = velocity_cost(gv[unmatched], np.array([[st.ve_mps[j], st.vn_mps[j]]]), th)[:, 0]
-                best = int(np.argmin(cost))
-                i = unmatched[best]
-                pair = (int(tracks.ids[i]), k)
-                if cost[best] < 0.35:
-                    sp0 = self._motion_spoof_since.setdefault(pair, t)
-                    if (t - sp0 >= s.spoof_dwell_s + s.ais_unseen_dwell_s and k not in self._spoof_alerted
-                            and t - since >= s.ais_unseen_dwell_s):
-                        self._spoof_alerted.add(k)
-                        lat, lon = self.ais.to_geodetic(st.e_m[j], st.n_m[j])
-                        msg = (f"possible spoofing: MMSI {k} reports a position {tg.range_m[j]:.0f} m away at bearing "
-                               f"{tg.az_deg[j]:.1f} deg where the camera sees nothing, while unidentified camera "
-                               f"track {pair[0]} at bearing {ta.az_deg[i]:.1f} deg moves like it")
-                        out.append(self._alert(t, "possible_spoofing", msg, pair[0], k, float(lat), float(lon),
-                                               ta.az_deg[i]))
-                else:
-                    self._motion_spoof_since.pop(pair, None)
+            if cost is None or math.hypot(st.ve_mps[j], st.vn_mps[j]) < 1.0:
+                continue
+            best = int(np.argmin(cost[:, c]))
+            i = unmatched[best]
+            pair = (int(tracks.ids[i]), k)
+            if cost[best, c] < 0.35:
+                sp0 = self._motion_spoof_since.setdefault(pair, t)
+                if (t - sp0 >= s.spoof_dwell_s and k not in self._spoof_alerted
+                        and t - since >= s.ais_unseen_dwell_s):
+                    self._spoof_alerted.add(k)
+                    lat, lon = self.ais.to_geodetic(st.e_m[j], st.n_m[j])
+                    msg = (f"possible spoofing: MMSI {k} reports a position {tg.range_m[j]:.0f} m away at bearing "
+                           f"{tg.az_deg[j]:.1f} deg where the camera sees nothing, while unidentified camera "
+                           f"track {pair[0]} at bearing {ta.az_deg[i]:.1f} deg moves like it")
+                    out.append(self._alert(t, "possible_spoofing", msg, pair[0], k, float(lat), float(lon),
+                                           ta.az_deg[i]))
+            else:
+                self._motion_spoof_since.pop(pair, None)
         return out
 
     def _alert(self, t, kind, msg, tid, mmsi, lat, lon, az) -> Alert:

@@ -1,0 +1,265 @@
+"""Camera / AIS fusion: identity accuracy on FVessel clip-01, the simulator's harbour end to end,
+fusion speed, and AIS replay speed on the Solent data.
+
+FVessel clip-01
+    The ground-truth tracking boxes (one per vessel per second, seconds 2-110) are the camera
+    tracks, degraded at stated rates: box position noise (``NOISE_FRAC`` of the box size per
+    coordinate, Gaussian), dropouts (each track-second missing with probability ``DROPOUT``) and
+    identity switches (each track-second, with probability ``IDSW_RATE``, the track continues under
+    a new id).  Video second ``s`` is Unix time ``T0_UNIX_S + s``: the clip's video file is named
+    ``2022_06_04_12_05_12_12_07_02_b.mp4`` (start 12:05:12, end 12:07:02 local time, UTC+8, i.e.
+    110 s, matching the ground truth's seconds 2-110), and DeepSORVF reads the AIS snapshot named
+    by the same local time at each video second.  AIS reports are released to the fuser only once
+    their time stamp is reached.  Figures: the fraction of ground-truth vessel-seconds whose camera
+    track carries the correct MMSI (over the seconds the degraded tracker outputs the vessel, and
+    over all), and the fraction carrying a wrong MMSI; mean over ``SEEDS`` seeds.
+
+Speed
+    One :meth:`Fuser.update` with 200 AIS vessels (all in the field of view) and 50 camera tracks,
+    median of repeats on one core, beside a naive per-pair Python loop computing the same
+    geometric cost matrix (the peer).  Solent: the 84-minute file replayed through the AIS track
+    table in 1-second steps (reports added, every vessel dead-reckoned to each step), vs real time.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+NAME = "fusion"
+DESCRIPTION = "AIS fusion: FVessel clip-01 MMSI accuracy, harbour end to end, update and Solent replay speed"
+
+T0_UNIX_S = 1654315512.0  # 2022-06-04 12:05:12 UTC+8: video start of FVessel clip-01
+NOISE_FRAC = 0.03
+DROPOUT = 0.05
+IDSW_RATE = 0.01
+SEEDS = (0, 1, 2, 3, 4)
+
+
+# ----------------------------------------------------------------------------- FVessel
+def _fvessel_tracks(gt_track: np.ndarray, gt_fusion: np.ndarray, seed: int, noise_frac: float,
+                    dropout: float, idsw_rate: float):
+    """Per second: (t, ids, boxes, velocities, ages, true mmsi, n_gt) of degraded ground-truth tracks."""
+    rng = np.random.default_rng(seed)
+    seconds = np.unique(gt_track[:, 0]).astype(int)
+    # ground-truth id -> mmsi through identical boxes of the same second
+    mm = {}
+    for r in gt_track:
+        same = gt_fusion[(gt_fusion[:, 0] == r[0]) & np.all(np.isclose(gt_fusion[:, 2:6], r[2:6]), axis=1)]
+        if len(same):
+            mm[(int(r[0]), int(r[1]))] = int(same[0, 1])
+    cur_id = {}
+    born = {}
+    next_id = 100
+    prev_centre = {}
+    out = []
+    for s in seconds:
+        rows = gt_track[gt_track[:, 0] == s]
+        ids, boxes, vels, ages, truth = [], [], [], [], []
+        for r in rows:
+            gid = int(r[1])
+            if gid not in cur_id or rng.random() < idsw_rate:
+                cur_id[gid] = next_id
+                born[next_id] = s
+                next_id += 1
+            if rng.random() < dropout:
+                continue
+            x, y, w, h = r[2:6]
+            b = np.array([x + rng.normal(0, noise_frac * w), y + rng.normal(0, noise_frac * h), w, h])
+            tid = cur_id[gid]
+            c = np.array([b[0] + w / 2, b[1] + h / 2])
+            pc = prev_centre.get(tid)
+            v = (c - pc[1]) / max(s - pc[0], 1) if pc is not None else np.zeros(2)
+            prev_centre[tid] = (s, c)
+            ids.append(tid)
+            boxes.append(b)
+            vels.append(v)
+            ages.append(float(s - born[tid]))
+            truth.append(mm.get((int(s), gid), 0))
+        out.append((float(s), np.array(ids, np.int64), np.array(boxes).reshape(-1, 4), np.array(vels).reshape(-1, 2),
+                    np.array(ages), np.array(truth, np.int64), len(rows)))
+    return out
+
+
+def fvessel_run(root, seed: int = 0, noise_frac: float = NOISE_FRAC, dropout: float = DROPOUT,
+                idsw_rate: float = IDSW_RATE, settings=None):
+    """Run the fuser over FVessel clip-01; returns (correct, wrong, tracked, total, fuser)."""
+    from seawatch.camera import load_fvessel_camera
+    from seawatch.config import FusionSettings
+    from seawatch.fuse import Fuser
+    from seawatch.io.ais import read_fvessel_ais
+    from seawatch.types import Tracks
+
+    cam = load_fvessel_camera(root / "camera_para.txt")
+    reps, _ = read_fvessel_ais(root / "ais")
+    gt_track = np.loadtxt(root / "gt" / "clip-01_gt_tracking.txt", delimiter=",", ndmin=2)
+    gt_fusion = np.loadtxt(root / "gt" / "clip-01_gt_fusion.txt", delimiter=",", ndmin=2)
+    s = settings or FusionSettings(ais_time_offset_s=T0_UNIX_S)
+    fuser = Fuser(cam, s, ais=reps)
+    correct = wrong = tracked = total = 0
+    for t, ids, boxes, vels, ages, truth, n_gt in _fvessel_tracks(gt_track, gt_fusion, seed, noise_frac, dropout, idsw_rate):
+        out, _ = fuser.update(Tracks(t, int(t), ids, boxes, vels, ages_s=ages), None, t)
+        total += n_gt
+        tracked += len(ids)
+        correct += int(np.sum((out.mmsi == truth) & (truth > 0)))
+        wrong += int(np.sum((out.mmsi != truth) & (out.mmsi > 0)))
+    return correct, wrong, tracked, total, fuser
+
+
+def _bench_fvessel(ctx) -> None:
+    root = ctx.data("fvessel_clip01")
+    seeds = SEEDS[:2] if ctx.quick else SEEDS
+    for label, nf, dp, sw in (("gt_boxes_clean", 0.0, 0.0, 0.0), ("gt_boxes_degraded", NOISE_FRAC, DROPOUT, IDSW_RATE)):
+        res = [fvessel_run(root, sd, nf, dp, sw) for sd in (seeds if label.endswith("degraded") else (0,))]
+        c = np.array([r[0] for r in res], float)
+        w = np.array([r[1] for r in res], float)
+        tr = np.array([r[2] for r in res], float)
+        tot = np.array([r[3] for r in res], float)
+        extra = {"noise_frac": nf, "dropout": dp, "idsw_rate_per_track_s": sw, "seeds": len(res)}
+        ctx.record("fvessel_clip01", label, "correct_mmsi_frac_tracked", float(np.mean(c / tr)), "fraction",
+                   target=0.95, **extra)
+        ctx.record("fvessel_clip01", label, "correct_mmsi_frac_all", float(np.mean(c / tot)), "fraction", **extra)
+        ctx.record("fvessel_clip01", label, "wrong_mmsi_frac", float(np.mean(w / tr)), "fraction", target=0.02,
+                   **extra)
+        cal = res[0][4].calibration
+        if label.endswith("clean"):
+            f = res[0][4]
+            th = f.calibrate_theta(seed=0)
+            ctx.record("fvessel_clip01", "self_calibration", "pan_offset_deg", cal["pan_offset_deg"], "deg",
+                       sigma=cal["pan_sigma_deg"], n=cal["n_samples"])
+            ctx.record("fvessel_clip01", "self_calibration", "tilt_offset_deg", cal["tilt_offset_deg"], "deg",
+                       sigma=cal["tilt_sigma_deg"], n=cal["n_samples"])
+            ctx.record("fvessel_clip01", "theta_robust", "theta_deg", cal["theta_robust_deg"], "deg",
+                       sigma=cal["theta_robust_sigma_deg"], n=cal["theta_pairs"])
+            ctx.record("fvessel_clip01", "theta_policy_gradient", "theta_deg", th, "deg", theta0_deg=15.0)
+
+
+# ------------------------------------------------------------------------------- speed
+def _synthetic_update_case(n_ais: int = 200, n_tracks: int = 50, seed: int = 0):
+    from seawatch.camera import CameraModel, Intrinsics
+    from seawatch.types import AISReport, CameraPose, Tracks
+
+    rng = np.random.default_rng(seed)
+    cam = CameraModel(Intrinsics.from_fov(60.0, 1920, 1080), CameraPose(50.8, -1.1, 25.0, 90.0, -0.8))
+    rng_m = rng.uniform(400, 6000, n_ais)
+    az = 90.0 + rng.uniform(-28, 28, n_ais)
+    e, n = rng_m * np.sin(np.radians(az)), rng_m * np.cos(np.radians(az))
+    lat, lon, _ = cam.enu_to_geodetic(e, n, 0.0)
+    reps = [AISReport(235000000 + i, -1.0, float(lat[i]), float(lon[i]), float(rng.uniform(0, 15)),
+                      float(rng.uniform(0, 360)), msg_type=1) for i in range(n_ais)]
+    pick = rng.choice(n_ais, n_tracks, replace=False)
+    u, v, _ = cam.enu_to_pixel(e[pick], n[pick], 0.0)
+    w = 30.0 * cam.intrinsics.fx / rng_m[pick]
+    boxes = np.stack([u - w / 2, v - 0.4 * w, w, 0.4 * w], axis=1)
+    tracks = Tracks(0.0, 0, np.arange(1, n_tracks + 1), boxes, rng.normal(0, 2, (n_tracks, 2)))
+    return cam, reps, tracks
+
+
+def _naive_cost(cam, tracks, table, t_s, s):
+    """The peer: the same geometric cost, one Python loop iteration per pair."""
+    st = table.states_at(t_s)
+    n, m = len(tracks), len(st)
+    out = [[0.0] * m for _ in range(n)]
+    for i in range(n):
+        x, y, w, h = tracks.boxes[i]
+        az_t, el_t = cam.pixel_to_azel(x + w / 2, y + h)
+        azl, _ = cam.pixel_to_azel(x, y + h)
+        half = abs(float(az_t) - float(azl))
+        for j in range(m):
+            e, nn = float(st.e_m[j]), float(st.n_m[j])
+            d = math.hypot(e, nn)
+            az = math.degrees(math.atan2(e, nn)) % 360.0
+            el = math.degrees(math.atan2(-(cam.pose.height_m + d * d / (2 * cam.r_eff_m)), d))
+            daz = max(abs((float(az_t) - az + 180) % 360 - 180) - half, 0.0)
+            out[i][j] = (daz / s.sigma_az_deg) ** 2 + ((float(el_t) - el) / s.sigma_el_deg) ** 2
+    return out
+
+
+def _bench_speed(ctx) -> None:
+    from seawatch.config import FusionSettings
+    from seawatch.fuse import Fuser
+
+    cam, reps, tracks = _synthetic_update_case()
+    s = FusionSettings()
+    fuser = Fuser(cam, s, ais=reps)
+    reps_n = 30 if ctx.quick else 200
+    times = []
+    for k in range(reps_n + 5):
+        tracks.t_s = 0.1 * k
+        t0 = time.perf_counter()
+        fuser.update(tracks, None, 0.1 * k)
+        times.append(time.perf_counter() - t0)
+    ms = float(np.median(times[5:]) * 1000)
+    n_in = len(fuser.ais.states_at(0.5))
+    ctx.record("synthetic_200ais_50tracks", "Fuser.update", "ms_per_update", ms, "ms", target=5.0,
+               ais_vessels=n_in, camera_tracks=len(tracks))
+    peer = []
+    for _ in range(3 if ctx.quick else 7):
+        t0 = time.perf_counter()
+        _naive_cost(cam, tracks, fuser.ais, 0.5, s)
+        peer.append(time.perf_counter() - t0)
+    pm = float(np.median(peer) * 1000)
+    ctx.record("synthetic_200ais_50tracks", "naive_per_pair_loop_cost_only", "ms_per_update", pm, "ms")
+    ctx.record("synthetic_200ais_50tracks", "Fuser.update", "speedup_vs_naive_loop", pm / ms, "x")
+
+
+def solent_replay(path, step_s: float = 1.0):
+    """Replay an AIS CSV through a TargetTable; returns (seconds of data, seconds of wall time, reports, vessels)."""
+    from seawatch.fuse import TargetTable
+    from seawatch.io.ais import read_ais_csv, reports_to_array
+
+    t0 = time.perf_counter()
+    reps, _ = read_ais_csv(path)
+    arr = reports_to_array(reps)
+    tab = TargetTable(float(np.median(arr["lat_deg"])), float(np.median(arr["lon_deg"])))
+    t = arr["t_s"]
+    edges = np.arange(t[0], t[-1] + step_s, step_s)
+    idx = np.searchsorted(t, edges, side="right")
+    lo = 0
+    for te, hi in zip(edges, idx):
+        if hi > lo:
+            tab.add_array(arr[lo:hi])
+            lo = hi
+        tab.states_at(float(te))
+    wall = time.perf_counter() - t0
+    return float(t[-1] - t[0]), wall, len(arr), len(tab)
+
+
+def _bench_solent(ctx) -> None:
+    path = ctx.data("ais", "solent_20160112.csv")
+    runs = [solent_replay(path) for _ in range(1 if ctx.quick else 3)]
+    span, wall, n, nv = runs[0][0], float(np.median([r[1] for r in runs])), runs[0][2], runs[0][3]
+    ctx.record("solent_20160112", "read_csv+TargetTable_1s_steps", "replay_speed_vs_real_time", span / wall, "x",
+               target=100.0, reports=n, vessels=nv, data_s=span, wall_s=wall)
+
+
+# ----------------------------------------------------------------------------- harbour
+def _bench_harbour(ctx) -> None:
+    try:
+        from seawatch.sim import make_scenario  # noqa: F401
+        from seawatch.pipeline import Pipeline  # noqa: F401
+    except ImportError as exc:
+        ctx.record("harbour", "pipeline+fusion", "status_not_run", float("nan"), "", reason=str(exc))
+        return
+    from benchmarks_harbour import run_harbour  # type: ignore  # pragma: no cover
+
+    run_harbour(ctx)
+
+
+def run(ctx) -> None:
+    import os
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    _bench_speed(ctx)
+    try:
+        _bench_solent(ctx)
+    except Exception as exc:  # missing data skips only this part
+        if type(exc).__name__ != "BenchSkipped":
+            raise
+    try:
+        _bench_fvessel(ctx)
+    except Exception as exc:
+        if type(exc).__name__ != "BenchSkipped":
+            raise
