@@ -476,8 +476,91 @@ def _cmd_bench(args) -> int:
     return EXIT_OK
 
 
+# -------------------------------------------------------------------------- ais
+def _add_ais(sub) -> None:  # owner: fusion
+    p = sub.add_parser(
+        "ais",
+        help="decode and inspect AIS (NMEA file, FVessel/Solent CSV, or a live udp:// / tcp:// stream)",
+        description=(
+            "Decode AIS from a file or folder (NMEA 0183 !AIVDM/!AIVDO with optional tag-block or leading\n"
+            "time stamps; FVessel snapshot CSVs; Stone Soup Solent CSV) or listen to a stream\n"
+            "(udp://HOST:PORT binds, tcp://HOST:PORT connects) and print what was read: counts, rejected\n"
+            "input with reasons and the first messages, and one line per vessel. --jsonl writes every\n"
+            "decoded report as JSON Lines."
+        ),
+        formatter_class=_formatter,
+    )
+    p.add_argument("source", help="file, folder, udp://HOST:PORT or tcp://HOST:PORT")
+    p.add_argument("--listen-s", type=float, default=10.0, help="seconds to listen to a stream (10)")
+    p.add_argument("--show", type=int, default=0, metavar="N", help="print the first N reports")
+    p.add_argument("--jsonl", type=Path, help="write the decoded reports to this JSON Lines file")
+    p.add_argument("--errors", type=int, default=5, metavar="N", help="print up to N rejection messages (5)")
+
+
+def _cmd_ais(args) -> int:  # owner: fusion
+    import dataclasses
+    import json
+    import math
+    import time as _time
+
+    from seawatch.io.ais import AISListener, read_ais
+
+    src = str(args.source)
+    if src.startswith(("udp://", "tcp://")):
+        try:
+            lis = AISListener(src, reconnect_s=1.0)
+        except (ValueError, OSError) as exc:
+            raise CLIError(f"{src}: {exc}") from None
+        reports = []
+        try:
+            t_end = _time.monotonic() + args.listen_s
+            while _time.monotonic() < t_end:
+                _time.sleep(0.2)
+                reports += lis.poll()
+        finally:
+            lis.close()
+        reports += lis.poll()
+        stats = lis.stats
+        for e in lis.errors[:3]:
+            print(f"seawatch ais: {e}", file=sys.stderr)
+    else:
+        try:
+            reports, stats = read_ais(src)
+        except ValueError as exc:
+            raise CLIError(str(exc)) from None
+    print(f"{src}: {stats.summary()}")
+    for m in stats.messages_log[: max(0, args.errors)]:
+        print(f"  rejected: {m}")
+    vessels: dict[int, dict] = {}
+    for r in reports:
+        v = vessels.setdefault(r.mmsi, {"n": 0, "t0": r.t_s, "t1": r.t_s, "name": None, "type": None, "last": None})
+        v["n"] += 1
+        v["t0"], v["t1"] = min(v["t0"], r.t_s), max(v["t1"], r.t_s)
+        v["name"] = r.name or v["name"]
+        v["type"] = r.ship_type or v["type"]
+        if r.has_position:
+            v["last"] = (r.lat_deg, r.lon_deg, r.sog_kn, r.cog_deg)
+    print(f"{len(vessels)} vessels")
+    for mmsi, v in sorted(vessels.items()):
+        last = v["last"]
+        pos = (f"{last[0]:.5f} {last[1]:.5f} {last[2]:.1f} kn {last[3]:.0f} deg" if last and math.isfinite(last[2])
+               and math.isfinite(last[3]) else (f"{last[0]:.5f} {last[1]:.5f}" if last else "no position"))
+        print(f"  {mmsi:9d}  {v['n']:6d} reports  {v['t1'] - v['t0']:8.0f} s  {str(v['name'] or ''):20s} "
+              f"type {v['type'] or '-':>3}  {pos}")
+    for r in reports[: max(0, args.show)]:
+        print(f"  {r}")
+    if args.jsonl is not None:
+        with open(args.jsonl, "w", encoding="utf-8") as fh:
+            for r in reports:
+                d = {k: (None if isinstance(x, float) and not math.isfinite(x) else x)
+                     for k, x in dataclasses.asdict(r).items()}
+                fh.write(json.dumps(d) + "\n")
+        print(f"wrote {len(reports)} reports to {args.jsonl}")
+    return EXIT_OK
+
+
 # ----------------------------------------------------------------------------------- the parser
-COMMANDS = ["run", "demo", "sim", "eval", "bench", "train-cascade", "sweep"]
+COMMANDS = ["run", "demo", "sim", "eval", "bench", "train-cascade", "sweep", "ais"]
 
 
 def build_parser() -> argparse.ArgumentParser:
