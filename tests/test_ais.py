@@ -303,3 +303,22 @@ def test_tcp_listener_localhost_bounded_server():
 def test_listener_bad_url():
     with pytest.raises(ValueError, match="udp://"):
         AISListener("http://x:1")
+
+
+def test_cli_ais_summary_and_jsonl(tmp_path, capsys):
+    import json
+
+    from seawatch.cli import main
+
+    s1 = enc(msg_type=1, mmsi=235000001, lat=50.0, lon=-1.0, speed=3.0, course=10.0)[0]
+    mp = enc(msg_type=5, mmsi=235000001, shipname="ALPHA", ship_type=60, seq=1)
+    p = tmp_path / "a.nmea"
+    p.write_text(f"1.0 {s1}\n2.0 {mp[0]}\n2.1 {mp[1]}\n3.0 {bad_checksum(s1)}\n")
+    out_jsonl = tmp_path / "out.jsonl"
+    assert main(["ais", str(p), "--jsonl", str(out_jsonl)]) == 0
+    text = capsys.readouterr().out
+    assert "2 reports" in text and "bad_checksum 1" in text and "ALPHA" in text and "1 vessels" in text
+    rows = [json.loads(x) for x in out_jsonl.read_text().splitlines()]
+    assert [r["mmsi"] for r in rows] == [235000001, 235000001] and rows[1]["name"] == "ALPHA"
+    assert rows[1]["lat_deg"] is None  # static report: no position
+    assert main(["ais", str(tmp_path / "missing.nmea")]) == 1
