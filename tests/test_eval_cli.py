@@ -67,3 +67,20 @@ def test_eval_errors_are_clear(tmp_path, capsys):
     assert "nope.txt" in capsys.readouterr().err
     assert main(["eval", "--gt", str(gt), "--pred", str(pr), "--iou", "1.5"]) == 1
     assert "--iou" in capsys.readouterr().err
+
+
+def test_eval_mardct_scores_only_annotated_frames(tmp_path, capsys):
+    d = tmp_path / "video2_gt"
+    d.mkdir()
+    (d / "clip_1300.txt").write_text("boat 148 78 51 30\n")
+    (d / "clip_1321.txt").write_text("")
+    det = tmp_path / "det.txt"  # MOT CSV: frame 1 = index 0, frame 22 = index 21, frame 5 not annotated
+    det.write_text("1,-1,149,78,51,30,0.9,-1,-1,-1\n22,-1,5,5,20,20,0.8,-1,-1,-1\n5,-1,0,0,9,9,0.7,-1,-1,-1\n")
+    out = tmp_path / "rep"
+    assert main(["eval", "--gt", str(d), "--frame-offset", "1300", "--pred", str(det), "--out", str(out),
+                 "--no-plots"]) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["n_frames"] == 2 and rep["frames"] == [0, 21]
+    assert (rep["summary"]["TP"], rep["summary"]["FP"], rep["summary"]["FN"]) == (1, 1, 0)
+    assert "MOTA" not in rep["summary"]  # no identities
+    assert sorted(p.name for p in out.iterdir()) == ["report.json", "report.md"]

@@ -227,3 +227,45 @@ def test_scores_many_frames_quickly():
     s = score_tracks(gt, pr)
     assert time.perf_counter() - t0 < 5.0
     assert s["IDSW"] == 0 and s["IDF1"] > 0.9
+
+
+def random_scene(seed, n_frames=40, crowd=120.0):
+    rng = np.random.default_rng(seed)
+    gt, pr = {}, {}
+    for t in range(n_frames):
+        n, m = int(rng.integers(0, 9)), int(rng.integers(0, 11))
+        gt[t] = (np.arange(n), np.c_[rng.uniform(0, crowd, (n, 2)), rng.uniform(5, 40, (n, 2))])
+        pr[t] = (np.arange(m) + 50, np.c_[rng.uniform(0, crowd, (m, 2)), rng.uniform(5, 40, (m, 2))])
+    return gt, pr
+
+
+def test_sparse_pairs_match_brute_force_in_small_blocks(monkeypatch):
+    from seawatch.eval import frames as fr
+
+    gt, pr = random_scene(5)
+    monkeypatch.setattr(fr, "_BLOCK_CELLS", 50)  # force many padded blocks
+    g, p = fr.align(gt, pr)
+    pt = fr.pair_table(g, p)
+    for f in range(g.n_frames):
+        dense = box_iou(g.frame(f)[1], p.frame(f)[1])
+        np.testing.assert_allclose(pt.matrix(f), dense)
+
+
+def test_assignment_shortcut_is_optimal():
+    from scipy.optimize import linear_sum_assignment
+
+    from seawatch.eval.matching import prepare
+
+    for seed in range(4):
+        gt, pr = random_scene(seed, crowd=80.0 + 80 * seed)
+        prep = prepare(gt, pr)
+        q = prep.max_overlap()
+        got = np.bincount(prep.pt.pf[q], weights=prep.pt.sim[q], minlength=prep.g.n_frames)
+        for f in range(prep.g.n_frames):
+            m = prep.pt.matrix(f)
+            best = m[linear_sum_assignment(-m)].sum() if m.size else 0.0
+            assert got[f] == pytest.approx(best)
+        qt = prep.thresholded(0.3)
+        assert np.all(prep.pt.sim[qt] >= 0.3 - 1e-12)
+        # one-to-one in every frame
+        assert len(np.unique(prep.pt.gi[qt])) == len(qt) == len(np.unique(prep.pt.pj[qt]))

@@ -88,19 +88,16 @@ class FrameSet:
         return out
 
     def reindexed(self, frames: np.ndarray) -> "FrameSet":
-        """The same rows on another frame axis (which must contain every frame used here)."""
+        """The same rows on another (sorted, unique) frame axis; rows of frames not on it are dropped."""
         frames = np.asarray(frames)
-        if len(self.frames) == 0:
-            pos = np.zeros(0, np.int64)
-        else:
-            pos = np.searchsorted(frames, self.frames)
-            pos_c = np.clip(pos, 0, max(len(frames) - 1, 0))
-            used = np.unique(self.fidx)
-            if len(used) and (len(frames) == 0 or np.any(frames[pos_c[used]] != self.frames[used])):
-                raise ValueError("reindexed: the new frame axis lacks frames that hold objects")
-            pos = pos_c
-        fidx = pos[self.fidx] if len(self.fidx) else np.zeros(0, np.int64)
-        return FrameSet(frames, fidx.astype(np.int64), self.ids, self.boxes, self.scores)
+        if len(self.frames) == 0 or len(frames) == 0:
+            z = np.zeros(0, np.int64)
+            return FrameSet(frames, z, self.ids[:0], self.boxes[:0], self.scores[:0])
+        pos = np.clip(np.searchsorted(frames, self.frames), 0, len(frames) - 1)
+        on_axis = frames[pos] == self.frames  # per own frame
+        keep = on_axis[self.fidx]
+        fidx = pos[self.fidx[keep]].astype(np.int64)
+        return FrameSet(frames, fidx, self.ids[keep], self.boxes[keep], self.scores[keep])
 
 
 def _entry(value, dim: int | None):
@@ -213,8 +210,9 @@ def as_frameset(data, dim: int | None = None) -> FrameSet:
 def align(gt, pred, frames=None, dim: int | None = 4) -> tuple[FrameSet, FrameSet]:
     """Ground truth and predictions on one frame axis.
 
-    The axis is ``frames`` when given, otherwise the union of both inputs' frame keys (a frame
-    listed with no objects still counts, e.g. for the mean of METE).
+    The axis is ``frames`` when given (objects of other frames are ignored, e.g. predictions
+    between the annotated frames of a sparsely annotated video), otherwise the union of both
+    inputs' frame keys (a frame listed with no objects still counts, e.g. for the mean of METE).
     """
     g = as_frameset(gt, dim)
     p = as_frameset(pred, dim)
