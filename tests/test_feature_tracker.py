@@ -119,6 +119,22 @@ def test_fit_zoom_pan_recovers_camera_motion_among_movers():
     assert not inl[:25].any() and inl[25:].mean() > 0.9
 
 
+def test_fit_similarity_recovers_roll():
+    rng = np.random.default_rng(4)
+    src = rng.uniform(0, 320, (60, 2))
+    phi, s = np.deg2rad(0.3), 0.995
+    h_true = np.array([[s * np.cos(phi), -s * np.sin(phi), 2.0], [s * np.sin(phi), s * np.cos(phi), -1.0], [0, 0, 1]])
+    dst = src @ h_true[:2, :2].T + h_true[:2, 2] + rng.normal(0, 0.1, src.shape)
+    dst[:10] = rng.uniform(0, 320, (10, 2))  # mismatches
+    h, inl = fit_zoom_pan(src, dst, threshold_px=0.5, rotation=True)
+    corners = np.array([[0, 0, 1], [320, 0, 1], [0, 240, 1], [320, 240, 1]], float)
+    assert np.abs(corners @ h.T - corners @ h_true.T).max() < 0.1
+    assert not inl[:10].any()
+    # the model without roll cannot follow it
+    h0, _ = fit_zoom_pan(src, dst, threshold_px=0.5, rotation=False)
+    assert np.abs(corners @ h0.T - corners @ h_true.T).max() > 0.5
+
+
 # ------------------------------------------------------------------ extractor
 def test_confidence_counters_on_a_still_scene():
     rng = np.random.default_rng(2)

@@ -40,7 +40,7 @@ __all__ = [
 ]
 
 _DESC_DIM = 128
-_MOTION_MODELS = ("zoom_pan", "similarity", "homography", "mean")
+_MOTION_MODELS = ("similarity", "zoom_pan", "homography", "mean")
 
 
 def to_grey_u8(image: np.ndarray, low_pct: float = 1.0, high_pct: float = 99.5) -> np.ndarray:
@@ -197,12 +197,16 @@ def _apply_h(h: np.ndarray, xy: np.ndarray) -> np.ndarray:
 
 
 def fit_zoom_pan(
-    src: np.ndarray, dst: np.ndarray, threshold_px: float = 1.0, n_iter: int = 128, seed: int = 0
+    src: np.ndarray, dst: np.ndarray, threshold_px: float = 1.0, n_iter: int = 64, seed: int = 0,
+    rotation: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Robust fit of ``dst = s * src + t`` (zoom and pan/tilt of a camera that does not roll).
+    """Robust fit of the camera's image motion ``dst = s R(phi) src + t``.
 
+    Without ``rotation`` the model is ``dst = s * src + t`` (a camera that pans, tilts and zooms
+    without rolling, seen through a narrow field of view); with it, a similarity (roll too).
     MSAC on two-point samples (pairs at least a tenth of the points' extent apart, so that the
-    scale of a sample is meaningful), then least squares on the inliers, twice.
+    scale of a sample means something), each sample refined by least squares on its inliers
+    (vectorised over the samples), then the best one refined once more.
 
     Parameters
     ----------
@@ -210,10 +214,11 @@ def fit_zoom_pan(
     threshold_px : float, inlier distance.
     n_iter : int, number of random samples.
     seed : int, seed of the sampler.
+    rotation : bool, fit a rotation too.
 
     Returns
     -------
-    h : (3, 3) homography ``[[s, 0, tx], [0, s, ty], [0, 0, 1]]``.
+    h : (3, 3) homography ``[[a, -b, tx], [b, a, ty], [0, 0, 1]]`` (``b = 0`` without rotation).
     inliers : (N,) bool.
     """
     src = np.asarray(src, np.float64)
@@ -222,33 +227,65 @@ def fit_zoom_pan(
     if n < 2:
         raise ValueError("fit_zoom_pan: needs at least 2 matches")
     rng = np.random.default_rng(seed)
-    a = rng.integers(0, n, n_iter)
-    b = (a + rng.integers(1, n, n_iter)) % n
-    ds = np.linalg.norm(src[a] - src[b], axis=1)
-    dd = np.linalg.norm(dst[a] - dst[b], axis=1)
+    ia = rng.integers(0, n, n_iter)
+    ib = (ia + rng.integers(1, n, n_iter)) % n
+    ds = src[ib] - src[ia]
+    dd = dst[ib] - dst[ia]
+    nrm = np.sum(ds * ds, axis=1)
     extent = float(np.linalg.norm(src.max(axis=0) - src.min(axis=0)))
-    ok = ds > max(0.1 * extent, 1e-6)
+    ok = nrm > max((0.1 * extent) ** 2, 1e-12)
     if not ok.any():
-        ok = ds > 1e-6
-    sc = np.r_[1.0, dd[ok] / ds[ok]]
-    t = np.r_[[np.median(dst - src, axis=0)], dst[a[ok]] - sc[1:, None] * src[a[ok]]]  # (M, 2)
+        ok = nrm > 1e-12
+    ds, dd, nrm, ia = ds[ok], dd[ok], nrm[ok], ia[ok]
+    # sample models (a, b); the first candidate is the pure translation by the median
+    a = np.r_[1.0, np.sum(ds * dd, axis=1) / nrm]
+    b = np.r_[0.0, (ds[:, 0] * dd[:, 1] - ds[:, 1] * dd[:, 0]) / nrm] if rotation else np.zeros(len(a))
+    if not rotation:
+        a[1:] = np.sqrt(np.sum(dd * dd, axis=1) / nrm)
+
+    def apply(a, b, t):
+        x = src[None, :, 0]
+        y = src[None, :, 1]
+        u = a[:, None] * x - b[:, None] * y + t[:, None, 0]
+        v = b[:, None] * x + a[:, None] * y + t[:, None, 1]
+        return (u - dst[None, :, 0]) ** 2 + (v - dst[None, :, 1]) ** 2  # (M, N) squared errors
+
+    sa = src[ia]
+    t = np.r_[[np.median(dst - src, axis=0)],
+              dst[ia] - np.stack([a[1:] * sa[:, 0] - b[1:] * sa[:, 1], b[1:] * sa[:, 0] + a[1:] * sa[:, 1]], 1)]
     thr2 = threshold_px**2
-    for wide in (4.0, 1.0):  # local optimisation of every sample: weighted least squares
-        err2 = np.sum((sc[:, None, None] * src[None] + t[:, None, :] - dst[None]) ** 2, axis=2)
-        w = (err2 < wide * thr2).astype(np.float64)  # (M, N)
-        wn = np.maximum(w.sum(axis=1), 1.0)
-        ms = (w @ src) / wn[:, None]
-        md = (w @ dst) / wn[:, None]
-        num = w @ np.sum(src * dst, axis=1) - wn * np.sum(ms * md, axis=1)
-        den = w @ np.sum(src * src, axis=1) - wn * np.sum(ms * ms, axis=1)
-        good = (w.sum(axis=1) >= 2) & (den > 1e-9)
-        sc = np.where(good, num / np.where(good, den, 1.0), sc)
-        t = np.where(good[:, None], md - sc[:, None] * ms, t)
-    err2 = np.sum((sc[:, None, None] * src[None] + t[:, None, :] - dst[None]) ** 2, axis=2)
+
+    def refine(w, a, b, t):
+        """Weighted least squares of every model on its (M, N) 0/1 weights."""
+        wn = w.sum(axis=1)
+        safe = np.maximum(wn, 1.0)
+        ms = (w @ src) / safe[:, None]
+        md = (w @ dst) / safe[:, None]
+        sxx = w @ np.sum(src * src, axis=1) - wn * np.sum(ms * ms, axis=1)
+        sdot = w @ np.sum(src * dst, axis=1) - wn * np.sum(ms * md, axis=1)
+        good = (wn >= 2) & (sxx > 1e-9)
+        den = np.where(good, sxx, 1.0)
+        a_new = sdot / den
+        if rotation:
+            cross = (w @ (src[:, 0] * dst[:, 1] - src[:, 1] * dst[:, 0])
+                     - wn * (ms[:, 0] * md[:, 1] - ms[:, 1] * md[:, 0]))
+            b_new = cross / den
+        else:
+            b_new = np.zeros_like(a_new)
+        t_new = md - np.stack([a_new * ms[:, 0] - b_new * ms[:, 1], b_new * ms[:, 0] + a_new * ms[:, 1]], 1)
+        return (np.where(good, a_new, a), np.where(good, b_new, b), np.where(good[:, None], t_new, t))
+
+    for wide in (4.0, 1.0):  # local optimisation of every sample
+        w = (apply(a, b, t) < wide * thr2).astype(np.float64)
+        a, b, t = refine(w, a, b, t)
+    err2 = apply(a, b, t)
     best = int(np.argmin(np.minimum(err2, thr2).sum(axis=1)))
+    a, b, t = a[best: best + 1], b[best: best + 1], t[best: best + 1]
     inl = err2[best] < thr2
-    s_, t_ = float(sc[best]), t[best]
-    h = np.array([[s_, 0.0, t_[0]], [0.0, s_, t_[1]], [0.0, 0.0, 1.0]])
+    if inl.sum() >= 2:
+        a, b, t = refine(inl[None].astype(np.float64), a, b, t)
+        inl = apply(a, b, t)[0] < thr2
+    h = np.array([[a[0], -b[0], t[0, 0]], [b[0], a[0], t[0, 1]], [0.0, 0.0, 1.0]])
     return h, inl
 
 
@@ -286,10 +323,13 @@ class StableFeatureExtractor:
         velocity; a longer baseline divides the keypoint localisation noise.
     history_s : float
         Length of the velocity history kept for the dissimilarity.
-    camera_motion : {"homography", "similarity", "mean"}
-        Model of the camera's own motion between frames ("mean" is the paper's).
+    camera_motion : {"similarity", "zoom_pan", "homography", "mean"}
+        Model of the camera's own motion between frames: "mean" is the paper's (the mean
+        displacement of the stable features); "zoom_pan" adds the zoom, "similarity" the roll
+        too (both fitted by :func:`fit_zoom_pan`); "homography" is exact for a camera turning
+        about its centre but ill-conditioned when the static features lie along a coastline.
     ransac_px : float
-        RANSAC reprojection threshold for the homography and similarity models.
+        Inlier threshold of the robust fit (working-image pixels).
     min_camera_matches : int
         Stable matches needed to fit the camera model (fewer: all matches; fewer than 4: the
         mean displacement; none: no motion).
@@ -301,6 +341,11 @@ class StableFeatureExtractor:
         Refine the positions of matched features to sub-pixel accuracy with Lucas-Kanade (not
         in the paper: CenSurE positions are whole pixels, and that quantisation noise is as
         large as the motion of a slow boat between two frames).
+    work_width_px : int
+        Width of the working image: wider frames are downscaled (area averaging) before the
+        keypoints are found, described and followed, and the results are scaled back to the
+        source's pixels.  0: the source's size.  ``ransac_px`` and the ``subpixel_*`` sizes are
+        in working-image pixels.
     subpixel_win_px, subpixel_max_px, subpixel_min_eig : int, float, float
         Lucas-Kanade window, how far the refined position may lie from the keypoint, and the
         smallest eigenvalue of the window's gradient matrix (OpenCV's ``minEigThreshold``)
@@ -324,7 +369,7 @@ class StableFeatureExtractor:
         gate_min_px_s: float = 250.0,
         velocity_window_s: float = 0.4,
         history_s: float = 0.6,
-        camera_motion: str = "zoom_pan",
+        camera_motion: str = "similarity",
         ransac_px: float = 0.5,
         min_camera_matches: int = 8,
         flann_trees: int = 4,
@@ -334,6 +379,7 @@ class StableFeatureExtractor:
         subpixel_win_px: int = 15,
         subpixel_max_px: float = 3.0,
         subpixel_min_eig: float = 1e-3,
+        work_width_px: int = 0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -364,6 +410,7 @@ class StableFeatureExtractor:
         self.subpixel_win_px = int(subpixel_win_px)
         self.subpixel_max_px = float(subpixel_max_px)
         self.subpixel_min_eig = float(subpixel_min_eig)
+        self.work_width_px = int(work_width_px)
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
             int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
@@ -393,6 +440,7 @@ class StableFeatureExtractor:
         self._t_prev: float | None = None
         self._shape: tuple[int, int] | None = None
         self._grey_prev: np.ndarray | None = None
+        self._scale = 1.0
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -445,6 +493,8 @@ class StableFeatureExtractor:
         q = match_quality(dist[:, 0], dist[:, 1])
         ok = (q >= self.min_quality) & (nn[:, 0] >= 0)
         qi = np.flatnonzero(ok)
+        if len(qi) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
         ti = nn[qi, 0]
         d1 = dist[qi, 0]
         # one query per active feature: the nearest
@@ -466,19 +516,15 @@ class StableFeatureExtractor:
         mean_h[:2, 2] = np.mean(d - s, axis=0) if self.camera_motion == "mean" else np.median(d - s, axis=0)
         if self.camera_motion == "mean" or len(s) < 4:
             return mean_h, ok and self.camera_motion == "mean"
-        if self.camera_motion == "zoom_pan":
-            h, inl = fit_zoom_pan(s, d, self.ransac_px, seed=self._n)
+        if self.camera_motion in ("zoom_pan", "similarity"):
+            h, inl = fit_zoom_pan(s, d, self.ransac_px, seed=self._n, rotation=self.camera_motion == "similarity")
             if inl.sum() < 3:
                 return mean_h, False
         else:
             s32, d32 = s.astype(np.float32), d.astype(np.float32)
-            if self.camera_motion == "homography" and len(s) >= 8:
-                h, inl = cv2.findHomography(s32, d32, cv2.RANSAC, self.ransac_px, maxIters=200, confidence=0.99)
-            else:
-                a, inl = cv2.estimateAffinePartial2D(
-                    s32, d32, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px, maxIters=200
-                )
-                h = None if a is None else np.vstack([a, [0.0, 0.0, 1.0]])
+            if len(s) < 8:
+                return mean_h, False
+            h, inl = cv2.findHomography(s32, d32, cv2.RANSAC, self.ransac_px, maxIters=200, confidence=0.99)
             if h is None or not np.all(np.isfinite(h)) or inl is None or inl.sum() < 4:
                 return mean_h, False
         h = h / h[2, 2]
@@ -523,10 +569,18 @@ class StableFeatureExtractor:
         ValueError
             When the image is not an image.
         """
-        grey = to_grey_u8(image)
-        if self._shape is not None and grey.shape != self._shape:
+        full = to_grey_u8(image)
+        if self._shape is not None and full.shape != self._shape:
             self.reset()  # a new source or resolution: nothing matches any more
-        self._shape = grey.shape
+        self._shape = full.shape
+        h_px, w_px = full.shape
+        if 0 < self.work_width_px < w_px:
+            self._scale = self.work_width_px / w_px
+            size = (self.work_width_px, max(1, int(round(h_px * self._scale))))
+            grey = cv2.resize(full, size, interpolation=cv2.INTER_AREA)
+        else:
+            self._scale = 1.0
+            grey = full
         fi = self._n if frame_index is None else int(frame_index)
         dt = 1.0 / self.nominal_fps
         if self._t_prev is not None and t_s > self._t_prev:
@@ -552,7 +606,8 @@ class StableFeatureExtractor:
             ref = res[stable] if stable.sum() >= 2 else res
             mu = ref.mean(axis=0)
             sigma = float(np.sqrt(np.mean(np.sum((ref - mu) ** 2, axis=1))))
-            keep = np.linalg.norm(res - mu, axis=1) <= max(self.gate_sigma * sigma, self.gate_min_px_s)
+            gate = max(self.gate_sigma * sigma, self.gate_min_px_s * self._scale)
+            keep = np.linalg.norm(res - mu, axis=1) <= gate
             qi, si, jumped = qi[keep], si[keep], jumped[keep]
 
         # carry every position into this frame with the camera motion
@@ -630,21 +685,24 @@ class StableFeatureExtractor:
         matched[matched_slots] = True
         vcol = (self._n - 1) % self._w
         order = (np.arange(self._w) + vcol + 1) % self._w  # oldest first, this frame last
-        hist = self._vel[act][:, order]
+        k = 1.0 / self._scale  # working-image pixels -> source-image pixels
+        hist = self._vel[act][:, order] * k
+        sc = np.diag([self._scale, self._scale, 1.0])
+        h_src = np.linalg.inv(sc) @ h @ sc
         return FeatureSnapshot(
             t_s=float(t_s),
             frame_index=int(fi),
             ids=self._ids[act].copy(),
             slots=act,
-            xy=self._xy[act].copy(),
-            size_px=self._size[act].copy(),
+            xy=self._xy[act] * k,
+            size_px=self._size[act] * k,
             confidence=self._conf[act].copy(),
             stable=self._conf[act] >= self.stable_confidence,
             matched=matched[act],
             velocity=hist[:, -1].copy() if len(act) else np.zeros((0, 2)),
             history=hist,
-            image_velocity=self._ivel[act].copy(),
-            homography=h,
+            image_velocity=self._ivel[act] * k,
+            homography=h_src / h_src[2, 2],
             dt_s=float(dt),
             n_keypoints=int(n_kp),
             n_matched=int(n_matched),

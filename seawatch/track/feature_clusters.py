@@ -115,18 +115,19 @@ def frame_edges(
     i, j : (E,) int64 indices into ``xy`` with ``i < j``.
     d : (E,) their dissimilarities.
     """
-    if len(xy) < 2:
-        z = np.zeros(0, np.int64)
-        return z, z, np.zeros(0)
-    pairs = cKDTree(xy).query_pairs(r=float(radius_px), output_type="ndarray")
-    if len(pairs) == 0:
-        z = np.zeros(0, np.int64)
-        return z, z, np.zeros(0)
-    i, j = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
-    if min_speed_px_s > 0:
+    z = np.zeros(0, np.int64)
+    idx = np.arange(len(xy))
+    if min_speed_px_s > 0 and len(xy):
         with np.errstate(invalid="ignore"):
             slow = np.hypot(history[..., 0], history[..., 1]) < min_speed_px_s
         history = np.where(slow[..., None], np.nan, history)
+        idx = np.flatnonzero(np.isfinite(history[..., 0]).any(axis=1))  # features seen moving
+    if len(idx) < 2:
+        return z, z, np.zeros(0)
+    pairs = cKDTree(xy[idx]).query_pairs(r=float(radius_px), output_type="ndarray")
+    if len(pairs) == 0:
+        return z, z, np.zeros(0)
+    i, j = idx[pairs[:, 0]], idx[pairs[:, 1]]
     d = motion_dissimilarity(history[i], history[j], p_px, frame_interval_s)
     keep = d < dmax
     return i[keep], j[keep], d[keep]
@@ -226,6 +227,7 @@ class AffinityClusters:
         self._fid = np.zeros(0, np.int64)
         self._label = np.zeros(0, np.int64)
         self._label_t = np.zeros(0)
+        self._has = np.zeros(0, bool)  # slots with a positive weight to some other slot
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
 
@@ -241,6 +243,7 @@ class AffinityClusters:
         self._fid = np.r_[self._fid, np.full(new - self._cap, -1, np.int64)]
         self._label = np.r_[self._label, np.full(new - self._cap, -1, np.int64)]
         self._label_t = np.r_[self._label_t, np.full(new - self._cap, -np.inf)]
+        self._has = np.r_[self._has, np.zeros(new - self._cap, bool)]
         self._cap = new
 
     def weights(self, slot_a: int, slot_b: int) -> float:
@@ -287,45 +290,59 @@ class AffinityClusters:
         changed = np.zeros(self._cap, bool)
         changed[slots] = self._fid[slots] != ids
         gone = ~present & (self._fid >= 0)
-        reset = changed | gone
+        reset = (changed | gone) & self._has
         if reset.any():
-            self._w[reset, :] = 0.0
-            self._w[:, reset] = 0.0
-            self._linked[reset, :] = False
-            self._linked[:, reset] = False
-            self._label[reset] = -1
-            self._label_t[reset] = -np.inf
-            self._fid[gone] = -1
+            r = np.flatnonzero(reset)
+            self._w[r, :] = 0.0
+            self._w[:, r] = 0.0
+            self._linked[r, :] = False
+            self._linked[:, r] = False
+            self._has[r] = False
+        forget = changed | gone
+        self._label[forget] = -1
+        self._label_t[forget] = -np.inf
+        self._fid[gone] = -1
         self._fid[slots] = ids
         if n == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
 
-        # affinity weights: +alpha on re-association, -1 otherwise, link hysteresis
-        ix = np.ix_(slots, slots)
-        w = self._w[ix] - 1.0
+        # affinity weights: +alpha on re-association, -1 otherwise, link hysteresis; only the
+        # features with a weight or an edge can change (the rest stay at 0)
         ei = np.asarray(edge_i, np.int64)
         ej = np.asarray(edge_j, np.int64)
-        w[ei, ej] += 1.0 + self.alpha
-        w[ej, ei] += 1.0 + self.alpha
+        touched = self._has[slots].copy()
+        touched[ei] = True
+        touched[ej] = True
+        sub = np.flatnonzero(touched)  # indices into slots
+        ss = slots[sub]
+        pos = np.full(n, -1, np.int64)
+        pos[sub] = np.arange(len(sub))
+        ix = np.ix_(ss, ss)
+        w = self._w[ix] - 1.0
+        w[pos[ei], pos[ej]] += 1.0 + self.alpha
+        w[pos[ej], pos[ei]] += 1.0 + self.alpha
         np.clip(w, 0.0, self.w_cap, out=w)
         np.fill_diagonal(w, 0.0)
         lk = (w >= self.w_link) | (self._linked[ix] & (w > 0))
         self._w[ix] = w
         self._linked[ix] = lk
+        self._has[ss] = (w > 0).any(axis=1)
 
         # clusters: connected components of the links among the active features
         act = np.ones(n, bool) if active is None else np.asarray(active, bool)
-        lk_act = lk & act[:, None] & act[None, :]
+        act_s = act[sub]
+        lk_act = lk & act_s[:, None] & act_s[None, :]
         li, lj = np.nonzero(np.triu(lk_act, 1))
         comp = np.full(n, -1, np.int64)
         if len(li):
-            g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(n, n))
+            m = len(sub)
+            g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(m, m))
             _, cc = connected_components(g, directed=False)
             size = np.bincount(cc)
             big = size[cc] >= self.min_features
             # renumber the components that are clusters to 0..C-1
-            uniq, inv = np.unique(cc[big], return_inverse=True)
-            comp[big] = inv
+            _, inv = np.unique(cc[big], return_inverse=True)
+            comp[sub[big]] = inv
 
         lab = self._label[slots].copy()
         lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
