@@ -421,11 +421,76 @@ def _cmd_eval(args) -> int:  # owner: evaluation
 
 # ---------------------------------------------------------------- train-cascade
 def _add_train_cascade(sub) -> None:  # owner: cascade trainer
-    sub.add_parser("train-cascade", help="train a boosted Haar cascade and write OpenCV cascade XML", formatter_class=_formatter)
+    p = sub.add_parser(
+        "train-cascade",
+        help="train a boosted Haar cascade and write OpenCV cascade XML",
+        description=(
+            "Train a boosted cascade of Haar stumps (Gentle AdaBoost, hard-negative mining, an optional\n"
+            "last wake stage) and write it in OpenCV's cascade XML, with a JSON beside it (box convention,\n"
+            "training record). Default: seawatch's boat cascade from --data (MarDCT training frames,\n"
+            "CORAL D1, simulator frames; MarDCT video2 is never used), with min_neighbors chosen on a\n"
+            "validation part. With --frames DIR: train on annotated frames <name>.png + <name>.txt\n"
+            "('label x y w h' per line) from DIR instead."
+        ),
+        formatter_class=_formatter,
+    )
+    p.add_argument("--data", type=Path, help="data directory (default: ../shared/data beside the repository)")
+    p.add_argument("--frames", type=Path, help="train on the annotated frames in this folder instead")
+    p.add_argument("--out", type=Path, default=None, help="output XML (default: seawatch/models/boat_cascade.xml)")
+    p.add_argument("--stages", type=int, default=20, help="maximum number of stages before the wake stage (20)")
+    p.add_argument("--min-hit-rate", type=float, default=0.995, help="per-stage minimum hit rate (0.995)")
+    p.add_argument("--max-false-alarm", type=float, default=0.5, help="per-stage maximum false-alarm rate (0.5)")
+    p.add_argument("--max-weak-count", type=int, default=100, help="most stumps per stage (100)")
+    p.add_argument("--features-per-stage", type=int, default=6000, help="random Haar features tried per stage (6000)")
+    p.add_argument("--max-positives", type=int, default=6000, help="most positive windows after augmentation (6000)")
+    p.add_argument("--window", default="60x30", help="window WIDTHxHEIGHT in pixels (60x30)")
+    p.add_argument("--time-budget-s", type=float, default=1800.0, help="stop adding stages after this many seconds")
+    p.add_argument("--no-sim", action="store_true", help="do not use simulator frames")
+    p.add_argument("--no-wake-stage", action="store_true", help="do not train the last wake stage")
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
 
 
 def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
-    raise CLIError("not available yet")
+    import dataclasses
+
+    from seawatch.train.trainer import TrainSettings
+
+    try:
+        ww, wh = (int(v) for v in str(args.window).lower().split("x"))
+    except ValueError:
+        raise CLIError(f"--window {args.window!r}: expected WIDTHxHEIGHT, e.g. 60x30") from None
+    if ww < 8 or wh < 8:
+        raise CLIError(f"--window {args.window}: at least 8x8 pixels")
+    s = TrainSettings(
+        width_px=ww, height_px=wh, n_stages=args.stages, min_hit_rate=args.min_hit_rate,
+        max_false_alarm=args.max_false_alarm, max_weak_count=args.max_weak_count,
+        features_per_stage=args.features_per_stage, max_positives=args.max_positives,
+        wake_stage=not args.no_wake_stage, time_budget_s=args.time_budget_s, seed=args.seed,
+    )
+    out = args.out
+    command = "seawatch " + " ".join(sys.argv[1:])
+    if args.frames is not None:
+        from seawatch.train.samples import load_mardct_frames
+        from seawatch.train.trainer import train_cascade
+
+        if out is None:
+            raise CLIError("--frames needs --out (the shipped model is trained with --data)")
+        images = load_mardct_frames(args.frames)
+        if not images:
+            raise CLIError(f"--frames {args.frames}: no annotated <name>.png + <name>.txt pairs")
+        train_cascade(images, out, dataclasses.replace(s))
+        return EXIT_OK
+    from seawatch.eval.bench import default_data_dir
+    from seawatch.train.recipe import train_default_model
+
+    data = args.data if args.data is not None else default_data_dir()
+    if data is None or not Path(data).is_dir():
+        raise CLIError("no data directory: give --data DIR (the layout of ../shared/data)")
+    if out is None:
+        from seawatch.detect.cascade import default_model_path
+        out = default_model_path()
+    train_default_model(data, out, s, use_sim=not args.no_sim, command=command)
+    return EXIT_OK
 
 
 # ------------------------------------------------------------------------ sweep

@@ -1,0 +1,215 @@
+"""Paper A boat detector (Bloisi et al.): a boosted Haar cascade with horizon and noise filters.
+
+Per frame: grey image (thermal frames normalised by a percentile stretch), 3x3 median,
+resize to the *detection scale*, ``cv2.CascadeClassifier.detectMultiScale`` with a scale factor,
+a minimum number of neighbours and the cascade's window as minimum size; then
+
+1. Canny pruning: windows with too few edge pixels are dropped (OpenCV ignores its own
+   ``CASCADE_DO_CANNY_PRUNING`` flag for current-format cascades);
+2. nested-box suppression (the outer box is kept, as in the authors' detector);
+3. the horizon filter (:mod:`seawatch.detect.horizon`): no detection above a water-coast line,
+   none wholly above a water-sky line; the line is smoothed over time;
+4. the reflection filter: boxes with a negligible FAST keypoint count for their area go;
+5. the window is mapped to a box with the box convention learned in training (the median
+   box/window width and height ratios stored beside the model).
+
+The wake filter is the cascade's last stage (see :mod:`seawatch.train`).
+
+Detection scale: the frame is resized by ``z`` so that the smallest boat to find
+(``min_size_px``, a box width in source pixels) fills the cascade's window; with
+``min_size_px = 0`` the smallest boat is 1/16 of the frame width (at least 12 px).
+``detection_width_px`` overrides it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from seawatch.detect.filters import canny_prune, prepare_grey, reflection_filter, suppress_nested, to_grey
+from seawatch.detect.horizon import Horizon, HorizonTracker, horizon_filter
+from seawatch.types import Detections, Frame, Modality
+
+__all__ = ["CascadeDetector", "CascadeParams", "default_model_path", "load_model_meta"]
+
+
+def default_model_path() -> Path:
+    """The shipped boat cascade."""
+    return Path(__file__).resolve().parent.parent / "models" / "boat_cascade.xml"
+
+
+def load_model_meta(model_path: str | Path) -> dict:
+    """The JSON written beside a cascade by the trainer (box convention), or defaults."""
+    p = Path(model_path).with_suffix(".json")
+    meta = {"box_ratio_w": 1.0, "box_ratio_h": 1.0, "box_dy_frac": 0.0}
+    if p.is_file():
+        try:
+            data = json.loads(p.read_text(encoding="utf-8"))
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{p}: not a valid model description: {exc}") from None
+        for k in ("box_ratio_w", "box_ratio_h", "box_dy_frac", "detector"):
+            if k in data:
+                meta[k] = data[k]
+    return meta
+
+
+@dataclass
+class CascadeParams:
+    """Settings of :class:`CascadeDetector` (see ``DetectorSettings`` in :mod:`seawatch.config`)."""
+
+    scale_factor: float = 1.1
+    min_neighbors: int = 3
+    min_size_px: float = 0.0  # smallest boat (box width, source px); 0: automatic
+    detection_width_px: int = 0  # overrides the detection scale; 0: automatic
+    max_upscale: float = 4.0
+    median_px: int = 3
+    canny_prune: bool = True
+    min_edge_frac: float = 0.03
+    suppress_nested: bool = True
+    horizon_filter: bool = True
+    horizon_tau_s: float = 0.5
+    horizon_hold_s: float = 2.0
+    reflection_filter: bool = True
+    reflection_min_per_100px2: float = 0.05
+    fast_threshold: int = 20
+
+
+class CascadeDetector:
+    """Boosted Haar cascade boat detector with the paper's filters (a :class:`~seawatch.types.Detector`).
+
+    Parameters
+    ----------
+    model_path : str or Path, optional
+        OpenCV cascade XML (default: the shipped ``seawatch/models/boat_cascade.xml``).  A
+        ``.json`` beside it, written by the trainer, gives the box convention; cascades without
+        one (e.g. the authors' ``barche.xml``) report their raw windows.
+    params : CascadeParams, optional
+    **overrides
+        Any :class:`CascadeParams` field.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the model file does not exist.
+    ValueError
+        When OpenCV cannot load it.
+    """
+
+    name = "cascade"
+
+    def __init__(self, model_path: str | Path | None = None, params: CascadeParams | None = None, **overrides):
+        p = dataclasses.replace(params) if params is not None else CascadeParams()
+        for k, v in overrides.items():
+            if not hasattr(p, k):
+                raise TypeError(f"CascadeDetector: unknown parameter {k!r}")
+            setattr(p, k, v)
+        if p.scale_factor <= 1.0:
+            raise ValueError(f"scale_factor must be > 1, got {p.scale_factor}")
+        path = Path(model_path) if model_path else default_model_path()
+        if not path.is_file():
+            raise FileNotFoundError(f"cascade model not found: {path}")
+        self.model_path = path
+        try:
+            self.classifier = cv2.CascadeClassifier(str(path))
+        except (cv2.error, SystemError) as exc:
+            raise ValueError(f"{path}: OpenCV could not load this cascade: {exc}") from None
+        if self.classifier.empty():
+            raise ValueError(f"{path}: OpenCV could not load this cascade")
+        ws = self.classifier.getOriginalWindowSize()
+        self.window = (int(ws[0]), int(ws[1])) if ws[0] > 0 else (60, 30)
+        meta = load_model_meta(path)
+        self.ratio_w = float(meta["box_ratio_w"])
+        self.ratio_h = float(meta["box_ratio_h"])
+        self.dy_frac = float(meta.get("box_dy_frac", 0.0))
+        self.params = p
+        self.horizon_tracker = HorizonTracker(tau_s=p.horizon_tau_s, hold_s=p.horizon_hold_s)
+        self.horizon: Horizon | None = None
+        self.n_bad_frames = 0
+        self.last_windows = np.zeros((0, 4))
+
+    # ------------------------------------------------------------------ geometry
+    def detection_scale(self, width_px: int) -> float:
+        """Resize factor applied to a frame ``width_px`` wide before the cascade runs."""
+        p = self.params
+        if p.detection_width_px and p.detection_width_px > 0:
+            return float(p.detection_width_px) / float(width_px)
+        min_boat = p.min_size_px if p.min_size_px > 0 else max(12.0, width_px / 16.0)
+        z = self.window[0] * self.ratio_w / float(min_boat)
+        return float(min(max(z, 0.05), p.max_upscale))
+
+    def windows_to_boxes(self, windows: np.ndarray) -> np.ndarray:
+        w = np.asarray(windows, np.float64).reshape(-1, 4)
+        cx = w[:, 0] + w[:, 2] / 2
+        cy = w[:, 1] + w[:, 3] * (0.5 + self.dy_frac)
+        bw = w[:, 2] * self.ratio_w
+        bh = w[:, 3] * self.ratio_h
+        return np.stack([cx - bw / 2, cy - bh / 2, bw, bh], axis=1)
+
+    # ------------------------------------------------------------------ detection
+    def raw_windows(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Grouped cascade windows (source pixels) and their neighbour counts, before filters."""
+        p = self.params
+        h, w = grey.shape
+        z = self.detection_scale(w)
+        dw, dh = max(1, int(round(w * z))), max(1, int(round(h * z)))
+        img = grey if (dw, dh) == (w, h) else cv2.resize(
+            grey, (dw, dh), interpolation=cv2.INTER_LINEAR if z > 1 else cv2.INTER_AREA)
+        if dw < self.window[0] or dh < self.window[1]:
+            return np.zeros((0, 4)), np.zeros(0)
+        rects, counts = self.classifier.detectMultiScale2(
+            img, scaleFactor=p.scale_factor, minNeighbors=int(p.min_neighbors), minSize=self.window)
+        rects = np.asarray(rects, np.float64).reshape(-1, 4)
+        counts = np.asarray(counts, np.float64).reshape(-1)
+        if len(rects) == 0:
+            return np.zeros((0, 4)), np.zeros(0)
+        sx, sy = w / dw, h / dh
+        return rects * np.array([sx, sy, sx, sy]), counts
+
+    def detect_grey(self, grey_raw: np.ndarray, t_s: float = 0.0, ir: bool = False
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes and scores on one grey (unsmoothed) image; updates the horizon state."""
+        p = self.params
+        g = prepare_grey(grey_raw, ir=ir, median_px=p.median_px)
+        wins, scores = self.raw_windows(g)
+        if p.canny_prune and len(wins):
+            keep = canny_prune(g, wins, p.min_edge_frac)
+            wins, scores = wins[keep], scores[keep]
+        if p.suppress_nested and len(wins) > 1:
+            keep = suppress_nested(wins, scores)
+            wins, scores = wins[keep], scores[keep]
+        if p.horizon_filter:
+            src = grey_raw if grey_raw.dtype == np.uint8 and not ir else prepare_grey(grey_raw, ir=True, median_px=0)
+            self.horizon = self.horizon_tracker.update(src, t_s)
+            if len(wins):
+                keep = horizon_filter(wins, self.horizon)
+                wins, scores = wins[keep], scores[keep]
+        if p.reflection_filter and len(wins):
+            keep = reflection_filter(g, wins, p.reflection_min_per_100px2, p.fast_threshold)
+            wins, scores = wins[keep], scores[keep]
+        self.last_windows = wins
+        return self.windows_to_boxes(wins), scores
+
+    def detect(self, frame: Frame) -> Detections:
+        """Detect boats in one frame.
+
+        A corrupt frame (empty, wrong shape) gives no detections and is counted in
+        ``n_bad_frames``; it never raises.
+        """
+        try:
+            grey = to_grey(frame.image, f"frame {frame.index}")
+        except ValueError:
+            self.n_bad_frames += 1
+            return Detections.empty(frame.t_s, frame.index, self.name, frame.camera_id)
+        ir = frame.modality == Modality.IR
+        boxes, scores = self.detect_grey(grey, frame.t_s, ir=ir)
+        return Detections(frame.t_s, frame.index, boxes, scores, self.name, frame.camera_id)
+
+    def reset(self) -> None:
+        """Forget the horizon state (a new video)."""
+        self.horizon_tracker.reset()
+        self.horizon = None

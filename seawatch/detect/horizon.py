@@ -1,0 +1,279 @@
+"""Horizon line (water-sky or water-coast line) detector of paper A (Bloisi et al.).
+
+As the authors' code does it: Canny(50, 70) on the unsmoothed grey image with the 5 top and
+bottom rows zeroed, the standard Hough transform (1 px, 1 degree, 100 votes), only the lines
+with ``theta`` in [1.50, 1.60] rad (within 4 degrees of horizontal).  The candidates are walked
+from the bottom of the image up; a line is accepted when its two ends (columns 0 and W - 1)
+differ by less than 10 px and more than 90 % of about 150 pixel pairs (the rows 10, 20 and 30 px
+above and below the line, at about 50 columns) differ by more than 10 grey levels; otherwise the
+next line up is tried.  Unlike the original, which compares rows at the mean height of the two
+ends, the pairs are sampled along the actual, sloped line, and each Hough line is first refitted
+(least squares) to the edge pixels within 3 px of it, which removes the 1-degree quantisation of
+the Hough grid.
+
+The image is worked on at a width of at most ``work_width_px`` (640 by default; the authors ran
+on small detection images), so the pixel constants keep their meaning on HD frames.
+
+The line is then classified: a *water-coast* line has texture above it (coast, quays,
+buildings), a *water-sky* line has none.  :func:`horizon_filter` drops detections whose centre
+lies above a water-coast line (the authors' rule) and those lying wholly above a water-sky line.
+:class:`HorizonTracker` smooths the line over time (time constant in seconds) and holds it for a
+while when a frame gives none.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from seawatch.detect.filters import normalize_ir, to_grey
+
+__all__ = ["Horizon", "detect_horizon", "horizon_filter", "HorizonTracker"]
+
+
+@dataclass(frozen=True)
+class Horizon:
+    """A horizon line in image pixels: row ``y_left`` at column 0, ``y_right`` at column ``width - 1``."""
+
+    y_left: float
+    y_right: float
+    width: int
+    kind: str = "sky"  # "sky" (water-sky) or "coast" (water-coast)
+    support: float = 1.0  # fraction of pixel pairs that differ across the line
+
+    def row_at(self, x) -> np.ndarray:
+        """Row of the line at column(s) ``x``."""
+        x = np.asarray(x, np.float64)
+        if self.width <= 1:
+            return np.full_like(x, self.y_left)
+        return self.y_left + (self.y_right - self.y_left) * x / (self.width - 1)
+
+    @property
+    def angle_deg(self) -> float:
+        """Slope angle, positive when the line goes down to the right (image rows grow downwards)."""
+        return math.degrees(math.atan2(self.y_right - self.y_left, max(self.width - 1, 1)))
+
+
+def _texture_above(grey: np.ndarray, edges: np.ndarray, yl: float, yr: float, band_px: int) -> float:
+    """Edge density in a band above the line (skipping the 3 px next to it)."""
+    h, w = grey.shape
+    xs = np.arange(0, w, 2)
+    ys_line = yl + (yr - yl) * xs / max(w - 1, 1)
+    tot = 0
+    cnt = 0
+    for d in range(3, band_px + 3, 2):
+        ys = np.round(ys_line - d).astype(int)
+        ok = ys >= 6
+        tot += int((edges[ys[ok], xs[ok]] > 0).sum())
+        cnt += int(ok.sum())
+    return tot / cnt if cnt else 0.0
+
+
+def _refine(edges: np.ndarray, yl: np.ndarray, yr: np.ndarray, band_px: float = 3.0
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares fit of each Hough line to the edge pixels within ``band_px`` of it.
+
+    The Hough grid is 1 degree and 1 px; the fit removes that quantisation (which alone can
+    push the two ends of a long line 10 px apart).
+    """
+    ys, xs = np.nonzero(edges)
+    h, w = edges.shape
+    yl = yl.copy()
+    yr = yr.copy()
+    if len(xs) == 0:
+        return yl, yr
+    xf = xs.astype(np.float64)
+    yf = ys.astype(np.float64)
+    for i in range(len(yl)):
+        a, b = yl[i], (yr[i] - yl[i]) / max(w - 1, 1)
+        for _ in range(2):
+            near = np.abs(yf - (a + b * xf)) <= band_px
+            if near.sum() < max(10, 0.1 * w):
+                break
+            b, a = np.polyfit(xf[near], yf[near], 1)
+        yl[i], yr[i] = a, a + b * (w - 1)
+    return yl, yr
+
+
+def detect_horizon(
+    image: np.ndarray,
+    ir: bool = False,
+    canny_low: float = 50.0,
+    canny_high: float = 70.0,
+    hough_votes: int = 100,
+    theta_range_rad: tuple[float, float] = (1.50, 1.60),
+    max_end_diff_px: float = 10.0,
+    pair_offsets_px: tuple[int, ...] = (10, 20, 30),
+    n_columns: int = 50,
+    min_grey_diff: float = 10.0,
+    min_support: float = 0.9,
+    coast_edge_density: float = 0.04,
+    max_lines: int = 100,
+    work_width_px: int = 640,
+) -> Horizon | None:
+    """Find the horizon line in one frame.
+
+    Parameters
+    ----------
+    image : (H, W) grey or (H, W, 3) BGR image (8- or 16-bit).
+    ir : bool
+        Normalise the image by scale and shift (percentile stretch) first.
+    canny_low, canny_high : float
+        Canny thresholds (the authors' 50, 70).
+    hough_votes : int
+        Standard Hough accumulator threshold (100).
+    theta_range_rad : (float, float)
+        Accepted line normal angles (1.50..1.60 rad: near-horizontal lines).
+    max_end_diff_px : float
+        Largest difference between the rows of the two ends of the line.
+    pair_offsets_px : tuple of int
+        Distances above and below the line of the compared pixel pairs.
+    n_columns : int
+        Number of sampled columns (pairs = columns x offsets).
+    min_grey_diff : float
+        A pair "differs" when its grey levels differ by more than this.
+    min_support : float
+        Fraction of differing pairs needed to accept a line.
+    coast_edge_density : float
+        Edge density above the line beyond which it is a water-coast line.
+    max_lines : int
+        At most this many Hough lines (strongest first) are considered.
+    work_width_px : int
+        Wider images are resized to this width first (pixel parameters refer to it).
+
+    Returns
+    -------
+    Horizon in the input image's pixels, or None when no line passes.
+    """
+    g = to_grey(image, "detect_horizon")
+    if ir or g.dtype != np.uint8:
+        g = normalize_ir(g)
+    h0, w0 = g.shape
+    f = 1.0
+    if work_width_px and w0 > work_width_px:
+        f = work_width_px / w0
+        g = cv2.resize(g, (work_width_px, max(1, int(round(h0 * f)))), interpolation=cv2.INTER_AREA)
+    h, w = g.shape
+    omax = max(pair_offsets_px)
+    if h < 2 * omax + 12 or w < 8:
+        return None
+    edges = cv2.Canny(g, canny_low, canny_high, apertureSize=3)
+    edges[:5] = 0
+    edges[-5:] = 0
+    step = math.pi / 180.0
+    t0 = math.ceil(theta_range_rad[0] / step - 1e-9) * step
+    t1 = math.floor(theta_range_rad[1] / step + 1e-9) * step
+    lines = cv2.HoughLines(edges, 1, step, int(hough_votes), min_theta=t0 - 1e-6, max_theta=t1 + 1e-6)
+    if lines is None:
+        return None
+    lines = lines[:max_lines, 0, :]
+    rho, theta = lines[:, 0].astype(np.float64), lines[:, 1].astype(np.float64)
+    keep = (theta >= theta_range_rad[0]) & (theta <= theta_range_rad[1])
+    rho, theta = rho[keep], theta[keep]
+    if len(rho) == 0:
+        return None
+    # row at column x: y = (rho - x cos t) / sin t
+    yl = rho / np.sin(theta)
+    yr = (rho - (w - 1) * np.cos(theta)) / np.sin(theta)
+    yl, yr = _refine(edges, yl, yr)
+    order = np.argsort(-(yl + yr))  # bottom first
+    cols = np.linspace(0, w - 1, n_columns + 1)[1:-1] if n_columns > 1 else np.array([w / 2])
+    gi = g.astype(np.int16)
+    for i in order:
+        if abs(yl[i] - yr[i]) >= max_end_diff_px:
+            continue
+        ys = yl[i] + (yr[i] - yl[i]) * cols / max(w - 1, 1)
+        if ys.min() - omax < 0 or ys.max() + omax > h - 1:
+            continue
+        xc = np.round(cols).astype(int)
+        yc = np.round(ys).astype(int)
+        diffs = np.concatenate([np.abs(gi[yc - d, xc] - gi[yc + d, xc]) for d in pair_offsets_px])
+        support = float((diffs > min_grey_diff).mean())
+        if support > min_support:
+            band = max(8, int(round(0.08 * h)))
+            tex = _texture_above(g, edges, yl[i], yr[i], band)
+            kind = "coast" if tex > coast_edge_density else "sky"
+            # back to the input's pixels (pixel centres scale as (v + 0.5) / f - 0.5)
+            y0 = (yl[i] + 0.5) / f - 0.5
+            y1 = (yr[i] + 0.5) / f - 0.5
+            return Horizon(float(y0), float(y1), w0, kind, support)
+    return None
+
+
+def horizon_filter(boxes: np.ndarray, horizon: Horizon | None, sky_margin_frac: float = 0.0) -> np.ndarray:
+    """Mask of the boxes that survive the horizon line (``True`` = keep).
+
+    Water-coast line: a box whose centre lies above the line is dropped.  Water-sky line: a
+    box whose bottom lies above the line (by more than ``sky_margin_frac`` of its height) is
+    dropped, since a vessel sits on or below the horizon.
+    """
+    b = np.asarray(boxes, np.float64).reshape(-1, 4)
+    if horizon is None or len(b) == 0:
+        return np.ones(len(b), bool)
+    cx = b[:, 0] + b[:, 2] / 2
+    line = horizon.row_at(cx)
+    if horizon.kind == "coast":
+        return b[:, 1] + b[:, 3] / 2 >= line
+    return b[:, 1] + b[:, 3] * (1.0 + sky_margin_frac) >= line
+
+
+class HorizonTracker:
+    """Horizon line smoothed over time.
+
+    Parameters
+    ----------
+    tau_s : float
+        Time constant of the exponential smoothing of the line's two ends, seconds.
+    hold_s : float
+        How long the last line is kept when frames give none, seconds.
+    max_jump_px : float
+        A new line farther than this from the smoothed one (at either end) restarts the
+        smoothing (a pan or zoom moved it).
+    **detect_kw
+        Passed to :func:`detect_horizon`.
+    """
+
+    def __init__(self, tau_s: float = 0.5, hold_s: float = 2.0, max_jump_px: float = 25.0, **detect_kw):
+        if tau_s < 0 or hold_s < 0:
+            raise ValueError("HorizonTracker: tau_s and hold_s must be >= 0")
+        self.tau_s = float(tau_s)
+        self.hold_s = float(hold_s)
+        self.max_jump_px = float(max_jump_px)
+        self.detect_kw = detect_kw
+        self.state: Horizon | None = None
+        self.t_last: float | None = None  # time of the last line found
+        self.t_prev: float | None = None  # time of the last update
+
+    def reset(self) -> None:
+        self.state = None
+        self.t_last = self.t_prev = None
+
+    def update(self, image: np.ndarray, t_s: float, ir: bool = False) -> Horizon | None:
+        """Detect the line in this frame and return the smoothed line (or None)."""
+        found = detect_horizon(image, ir=ir, **self.detect_kw)
+        return self.update_with(found, t_s)
+
+    def update_with(self, found: Horizon | None, t_s: float) -> Horizon | None:
+        """Smooth an already detected line (or None) into the state."""
+        t_s = float(t_s)
+        if found is None:
+            if self.state is not None and self.t_last is not None and t_s - self.t_last > self.hold_s:
+                self.state = None
+            self.t_prev = t_s
+            return self.state
+        if self.state is None or self.state.width != found.width or (
+            max(abs(found.y_left - self.state.y_left), abs(found.y_right - self.state.y_right)) > self.max_jump_px
+        ):
+            self.state = found
+        else:
+            dt = max(0.0, t_s - (self.t_prev if self.t_prev is not None else t_s))
+            a = 1.0 if self.tau_s == 0 else 1.0 - math.exp(-dt / self.tau_s)
+            a = max(a, 0.05)
+            yl = self.state.y_left + a * (found.y_left - self.state.y_left)
+            yr = self.state.y_right + a * (found.y_right - self.state.y_right)
+            self.state = Horizon(yl, yr, found.width, found.kind, found.support)
+        self.t_last = self.t_prev = t_s
+        return self.state

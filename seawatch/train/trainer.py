@@ -1,0 +1,411 @@
+"""Train a boosted Haar cascade in the manner of ``opencv_traincascade``, with hard-negative mining.
+
+Stage after stage, :func:`train_cascade`
+
+1. keeps the positives the cascade so far still accepts;
+2. mines negatives: it scans random crops of the negative images, at random scales, with the
+   cascade so far (:func:`~seawatch.train.model.scan_image`, the same decisions as
+   ``cv2.CascadeClassifier``) and keeps windows it accepts away from every boat; the share of
+   scanned windows accepted is the cascade's false-alarm rate so far;
+3. trains a Gentle AdaBoost stage of stumps (:func:`~seawatch.train.boost.train_stage`) on a
+   random subset of the Haar feature pool;
+
+until the stage count, the target false-alarm rate (too few negatives found) or the time budget
+is reached.  An optional last *wake stage* (the paper's 25th level) is trained against the
+cascade's own false alarms on the training images and against the wakes beside the boats.
+The cascade is written to OpenCV XML after every stage.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections import OrderedDict
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from seawatch.train.boost import passes, train_stage, bin_features
+from seawatch.train.haar import HaarFeatures, feature_values, generate_features, integral_images, window_norm
+from seawatch.train.model import Cascade, evaluate_windows, scan_image, write_cascade_xml
+from seawatch.train.samples import (
+    LabelledImage, box_ratios, box_to_window, extract_windows, iou_matrix,
+)
+
+__all__ = ["TrainSettings", "train_cascade", "collect_positives", "mine_negatives", "detect_windows"]
+
+
+@dataclass
+class TrainSettings:
+    """Parameters of :func:`train_cascade` (all have opencv_traincascade-like defaults)."""
+
+    width_px: int = 60
+    height_px: int = 30
+    margin: float = 1.2  # window width = margin * max(box w, aspect * box h)
+    n_stages: int = 20
+    min_hit_rate: float = 0.995
+    max_false_alarm: float = 0.5
+    target_false_alarm: float = 1e-6  # stop when the cascade's false-alarm rate falls below
+    max_weak_count: int = 100
+    weight_trim_rate: float = 0.95
+    n_bins: int = 64
+    feature_kinds: tuple[str, ...] = ("x2", "y2", "x3", "y3", "x4", "y4", "x2y2", "point")
+    feature_pos_step_px: int = 2
+    feature_size_step_px: int = 2
+    features_per_stage: int = 6000
+    n_aug: dict = field(default_factory=lambda: {"mardct": 24, "coral": 6, "sim": 4})
+    min_box_w_px: float = 12.0  # smaller boxes are ignored (not positives, not negatives)
+    max_positives: int = 6000
+    neg_per_pos: float = 2.0
+    neg_per_crop: int = 12
+    crop_px: tuple[int, int] = (360, 270)  # scanned crop, in pixels of the scaled image
+    min_window_src_px: float = 20.0  # smallest window width scanned for negatives, source pixels
+    neg_iou_max: float = 0.2  # a negative window overlaps no boat or boat window more than this
+    max_scan_windows: float = 3e7  # per stage; fewer negatives than needed then: stop
+    wake_stage: bool = True
+    wake_min_hit_rate: float = 0.99
+    wake_max_false_alarm: float = 0.5
+    time_budget_s: float = 1800.0
+    seed: int = 0
+
+
+def _log_default(msg: str) -> None:
+    print(msg, flush=True)
+
+
+class _GreyCache:
+    """A few prepared grey images kept in memory (the big ones are re-read when needed)."""
+
+    def __init__(self, max_items: int = 12):
+        self.max_items = max_items
+        self.items: OrderedDict[int, np.ndarray] = OrderedDict()
+
+    def get(self, i: int, im: LabelledImage) -> np.ndarray:
+        if i in self.items:
+            self.items.move_to_end(i)
+            return self.items[i]
+        g = im.grey()
+        self.items[i] = g
+        if len(self.items) > self.max_items:
+            self.items.popitem(last=False)
+        return g
+
+
+def collect_positives(images: list[LabelledImage], s: TrainSettings, rng: np.random.Generator,
+                      log=_log_default) -> tuple[np.ndarray, np.ndarray]:
+    """Augmented positive windows of every boat box (with their source names).
+
+    Returns ``(windows (N, H, W) uint8, source (N,) str)``; flat windows that OpenCV would not
+    evaluate are dropped.
+    """
+    size = (s.width_px, s.height_px)
+    aspect = s.width_px / s.height_px
+    out, src = [], []
+    for im in images:
+        b = im.boxes[im.boxes[:, 2] >= s.min_box_w_px] if len(im.boxes) else im.boxes
+        if len(b) == 0:
+            continue
+        g = im.grey()
+        wins = box_to_window(b, aspect, s.margin)
+        out.append(extract_windows(g, wins, size, rng, n_aug=int(s.n_aug.get(im.source, 4))))
+        src += [im.source] * len(out[-1])
+    if not out:
+        raise ValueError("no positive boxes in the training images")
+    pos = np.concatenate(out)
+    src = np.asarray(src)
+    _, valid = window_norm(pos)
+    if (~valid).any():
+        log(f"  {int((~valid).sum())} flat positive windows dropped (OpenCV never evaluates them)")
+    pos, src = pos[valid], src[valid]
+    if len(pos) > s.max_positives:
+        keep = np.sort(rng.choice(len(pos), s.max_positives, replace=False))
+        pos, src = pos[keep], src[keep]
+    return pos, src
+
+
+def _avoid_boxes(im: LabelledImage, aspect: float, margin: float) -> np.ndarray:
+    parts = [im.boxes.reshape(-1, 4), im.ignore.reshape(-1, 4)]
+    b = np.concatenate(parts)
+    if len(b) == 0:
+        return b
+    return np.concatenate([b, box_to_window(b, aspect, margin)])
+
+
+def mine_negatives(
+    cascade: Cascade,
+    images: list[LabelledImage],
+    n_needed: int,
+    s: TrainSettings,
+    rng: np.random.Generator,
+    cache: _GreyCache | None = None,
+    max_windows: float | None = None,
+) -> tuple[np.ndarray, int, int]:
+    """Windows accepted by the cascade on random crops of the images, away from every boat.
+
+    Returns ``(windows (M, H, W) uint8, n_scanned, n_accepted)``.
+    """
+    cache = cache or _GreyCache()
+    aspect = s.width_px / s.height_px
+    max_windows = s.max_scan_windows if max_windows is None else max_windows
+    got: list[np.ndarray] = []
+    n_got = n_scan = n_acc = 0
+    cw, ch = s.crop_px
+    tries = 0
+    while n_got < n_needed and n_scan < max_windows and tries < 200000:
+        tries += 1
+        i = int(rng.integers(len(images)))
+        im = images[i]
+        g = cache.get(i, im)
+        h, w = g.shape
+        ws_max = 0.9 * min(w, aspect * h)
+        if ws_max <= s.min_window_src_px:
+            continue
+        ws = float(np.exp(rng.uniform(np.log(s.min_window_src_px), np.log(ws_max))))
+        z = s.width_px / ws  # resize factor source -> scanned
+        sw, sh = min(w, int(cw / z)), min(h, int(ch / z))
+        if sw * z < s.width_px + 2 or sh * z < s.height_px + 2:
+            continue
+        x0 = int(rng.integers(0, w - sw + 1))
+        y0 = int(rng.integers(0, h - sh + 1))
+        crop = g[y0:y0 + sh, x0:x0 + sw]
+        dst = (max(s.width_px, int(round(sw * z))), max(s.height_px, int(round(sh * z))))
+        scaled = cv2.resize(crop, dst, interpolation=cv2.INTER_LINEAR)
+        zx, zy = dst[0] / sw, dst[1] / sh
+        off = int(rng.integers(2))
+        sub = scaled[off:, off:]
+        hits = scan_image(cascade, sub, step_px=2, max_hits=50000)
+        n_scan += ((sub.shape[0] - s.height_px) // 2 + 1) * ((sub.shape[1] - s.width_px) // 2 + 1)
+        if len(hits) == 0:
+            continue
+        avoid = _avoid_boxes(im, aspect, s.margin)
+        if len(avoid):
+            src = np.stack([x0 + (hits[:, 1] + off) / zx, y0 + (hits[:, 0] + off) / zy,
+                            np.full(len(hits), s.width_px / zx), np.full(len(hits), s.height_px / zy)], axis=1)
+            ok = iou_matrix(src, avoid).max(axis=1) <= s.neg_iou_max
+            hits = hits[ok]
+        n_acc += len(hits)  # false alarms only: windows on boats are not counted
+        if len(hits) == 0:
+            continue
+        if len(hits) > s.neg_per_crop:
+            hits = hits[rng.choice(len(hits), s.neg_per_crop, replace=False)]
+        patches = np.stack([sub[y:y + s.height_px, x:x + s.width_px] for y, x, _ in hits])
+        got.append(patches)
+        n_got += len(patches)
+    if not got:
+        return np.zeros((0, s.height_px, s.width_px), np.uint8), n_scan, n_acc
+    neg = np.concatenate(got)[:n_needed]
+    return neg, n_scan, n_acc
+
+
+def detect_windows(cascade: Cascade, grey: np.ndarray, upscale: float, scale_factor: float = 1.1,
+                   max_windows: int = 20000) -> np.ndarray:
+    """Raw accepted windows ``(x, y, w, h)`` in source pixels over an image pyramid (no grouping)."""
+    out = []
+    h, w = grey.shape
+    z = upscale
+    while True:
+        dw, dh = int(round(w * z)), int(round(h * z))
+        if dw < cascade.width_px + 1 or dh < cascade.height_px + 1:
+            break
+        img = cv2.resize(grey, (dw, dh), interpolation=cv2.INTER_LINEAR)
+        hits = scan_image(cascade, img, step_px=2, max_hits=max_windows)
+        if len(hits):
+            out.append(np.stack([hits[:, 1] / z, hits[:, 0] / z,
+                                 np.full(len(hits), cascade.width_px / z),
+                                 np.full(len(hits), cascade.height_px / z)], axis=1))
+        z /= scale_factor
+    return np.concatenate(out) if out else np.zeros((0, 4))
+
+
+def _wake_negatives(cascade: Cascade, images: list[LabelledImage], s: TrainSettings,
+                    rng: np.random.Generator, upscale: float, max_n: int) -> np.ndarray:
+    """The cascade's false alarms on the training images, and wake windows beside the boats."""
+    aspect = s.width_px / s.height_px
+    size = (s.width_px, s.height_px)
+    out = []
+    for im in images:
+        g = im.grey()
+        avoid = _avoid_boxes(im, aspect, s.margin)
+        # (a) false alarms of the cascade, scanned like the detector would
+        up = upscale if max(g.shape) < 1000 else upscale / 3.0
+        wins = detect_windows(cascade, g, up)
+        if len(wins) and len(avoid):
+            wins = wins[iou_matrix(wins, avoid).max(axis=1) <= s.neg_iou_max]
+        if len(wins) > 60:
+            wins = wins[rng.choice(len(wins), 60, replace=False)]
+        # (b) wakes: windows beside and behind each boat, at its scale
+        b = im.boxes[im.boxes[:, 2] >= s.min_box_w_px] if len(im.boxes) else im.boxes
+        if len(b):
+            gw = box_to_window(b, aspect, s.margin)
+            shifts = [(-1.0, 0.0), (1.0, 0.0), (-0.75, 0.25), (0.75, 0.25), (0.0, 0.75), (-1.5, 0.0), (1.5, 0.0)]
+            side = np.concatenate([gw + np.array([dx, dy, 0.0, 0.0]) * np.stack(
+                [gw[:, 2], gw[:, 3], gw[:, 2], gw[:, 3]], axis=1) for dx, dy in shifts])
+            if len(avoid):
+                side = side[iou_matrix(side, avoid).max(axis=1) <= s.neg_iou_max]
+            hgt, wid = g.shape
+            inside = (side[:, 0] >= 0) & (side[:, 1] >= 0) & (side[:, 0] + side[:, 2] <= wid) & (
+                side[:, 1] + side[:, 3] <= hgt)
+            side = side[inside]
+            wins = np.concatenate([wins.reshape(-1, 4), side]) if len(side) else wins
+        if len(wins):
+            out.append(extract_windows(g, wins, size, rng, n_aug=0))
+    if not out:
+        return np.zeros((0, s.height_px, s.width_px), np.uint8)
+    neg = np.concatenate(out)
+    acc = evaluate_windows(cascade, neg) == cascade.n_stages
+    neg = neg[acc]
+    if len(neg) > max_n:
+        neg = neg[rng.choice(len(neg), max_n, replace=False)]
+    return neg
+
+
+def _binned_values(samples: np.ndarray, features: HaarFeatures, ids: np.ndarray, n_bins: int,
+                   rng: np.random.Generator, chunk: int = 1000):
+    ii = integral_images(samples)
+    fac, _ = window_norm(samples)
+    bins = np.empty((len(ids), len(samples)), np.uint8)
+    edges = np.empty((len(ids), n_bins - 1), np.float32)
+    n_edges = np.empty(len(ids), np.int32)
+    for a in range(0, len(ids), chunk):
+        sl = slice(a, min(a + chunk, len(ids)))
+        vals = feature_values(ii, fac, features.subset(ids[sl]))
+        bins[sl], edges[sl], n_edges[sl] = bin_features(vals, n_bins, rng)
+    return bins, edges, n_edges
+
+
+def train_cascade(
+    train_images: list[LabelledImage],
+    out_xml: str | Path,
+    settings: TrainSettings | None = None,
+    negative_images: list[LabelledImage] | None = None,
+    detect_upscale: float = 2.5,
+    log=_log_default,
+) -> tuple[Cascade, dict]:
+    """Train a cascade on the boxes of ``train_images`` and write it to ``out_xml``.
+
+    Parameters
+    ----------
+    train_images : list of LabelledImage
+        Images with boat boxes (positives; the rest of each image gives negatives).
+    out_xml : path
+        Written after every stage; a ``.json`` beside it holds the box convention and the
+        training record.
+    settings : TrainSettings
+    negative_images : optional extra images (boxes there are avoided, not learned).
+    detect_upscale : float
+        Upscale at which the wake stage scans the small training images for false alarms.
+
+    Returns
+    -------
+    (Cascade, record dict)
+    """
+    s = settings or TrainSettings()
+    t_start = time.perf_counter()
+    rng = np.random.default_rng(s.seed)
+    aspect = s.width_px / s.height_px
+    out_xml = Path(out_xml)
+    neg_images = list(train_images) + list(negative_images or [])
+
+    log(f"[train-cascade] {len(train_images)} training images, {len(neg_images)} negative images")
+    pool = generate_features(s.width_px, s.height_px, tuple(s.feature_kinds), s.feature_pos_step_px,
+                             s.feature_size_step_px)
+    log(f"  feature pool: {len(pool)} Haar features")
+    pos, pos_src = collect_positives(train_images, s, rng, log)
+    n_pos0 = len(pos)
+    counts = {k: int((pos_src == k).sum()) for k in np.unique(pos_src)}
+    log(f"  positives: {n_pos0} windows {counts}")
+    all_boxes = np.concatenate([im.boxes[im.boxes[:, 2] >= s.min_box_w_px] for im in train_images if len(im.boxes)])
+    ratio_w, ratio_h = box_ratios(all_boxes, aspect, s.margin)
+
+    cascade = Cascade(s.width_px, s.height_px, pool, [], params={
+        "min_hit_rate": s.min_hit_rate, "max_false_alarm": s.max_false_alarm,
+        "weight_trim_rate": s.weight_trim_rate, "max_weak_count": s.max_weak_count})
+    record = {
+        "settings": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(s).items()},
+        "n_train_images": len(train_images),
+        "n_negative_images": len(neg_images),
+        "n_boxes": int(len(all_boxes)),
+        "n_positive_windows": int(n_pos0),
+        "positive_windows_by_source": counts,
+        "box_ratio_w": ratio_w,
+        "box_ratio_h": ratio_h,
+        "aspect": aspect,
+        "margin": s.margin,
+        "stages": [],
+    }
+    cache = _GreyCache()
+    neg = np.zeros((0, s.height_px, s.width_px), np.uint8)
+    fa_total = 1.0
+    stop_reason = "stage count"
+    for st in range(s.n_stages):
+        elapsed = time.perf_counter() - t_start
+        if elapsed > s.time_budget_s:
+            stop_reason = "time budget"
+            break
+        t0 = time.perf_counter()
+        n_neg_needed = int(s.neg_per_pos * len(pos))
+        more, n_scan, n_acc = mine_negatives(cascade, neg_images, n_neg_needed - len(neg), s, rng, cache)
+        neg = np.concatenate([neg, more])
+        if n_scan:
+            fa_total = n_acc / n_scan
+        log(f"stage {st}: {len(pos)} pos, {len(neg)} neg (mined {len(more)} of {n_scan} scanned windows, "
+            f"cascade FA {fa_total:.2e}) {time.perf_counter() - t0:.1f} s")
+        if len(neg) < 0.25 * n_neg_needed or (st > 0 and fa_total < s.target_false_alarm):
+            stop_reason = "target false-alarm rate (too few negatives)"
+            break
+        t1 = time.perf_counter()
+        ids = np.sort(rng.choice(len(pool), min(s.features_per_stage, len(pool)), replace=False))
+        samples = np.concatenate([pos, neg])
+        labels = np.concatenate([np.ones(len(pos)), -np.ones(len(neg))])
+        binned = _binned_values(samples, pool, ids, s.n_bins, rng)
+        t_feat = time.perf_counter() - t1
+        res = train_stage(binned, labels, ids, s.min_hit_rate, s.max_false_alarm, s.max_weak_count,
+                          s.n_bins, s.weight_trim_rate, rng)
+        cascade.stages.append(res.stage)
+        keep = res.passed
+        n_p = len(pos)
+        pos = pos[keep[:n_p]]
+        neg = neg[keep[n_p:]]
+        info = {"stage": st, "n_weak": len(res.stage.feature), "hit_rate": res.hit_rate,
+                "false_alarm": res.false_alarm, "n_pos": int(n_p), "n_neg": int(len(labels) - n_p),
+                "cascade_fa_before": fa_total, "features_s": round(t_feat, 1), "boost_s": round(res.seconds, 1),
+                "elapsed_s": round(time.perf_counter() - t_start, 1)}
+        record["stages"].append(info)
+        log(f"  stage {st}: {info['n_weak']} stumps, HR {res.hit_rate:.4f}, FA {res.false_alarm:.3f} "
+            f"(features {t_feat:.1f} s, boosting {res.seconds:.1f} s, total {info['elapsed_s']:.0f} s)")
+        _save(cascade, out_xml, record)
+
+    record["stop_reason"] = stop_reason
+    record["n_main_stages"] = cascade.n_stages
+    record["cascade_false_alarm"] = fa_total
+    if s.wake_stage and cascade.n_stages > 0:
+        t0 = time.perf_counter()
+        wneg = _wake_negatives(cascade, [im for im in train_images if im.source != "coral"] or train_images,
+                               s, rng, detect_upscale, max_n=int(s.neg_per_pos * len(pos)))
+        log(f"wake stage: {len(pos)} pos, {len(wneg)} neg (false alarms and wakes)")
+        if len(wneg) >= 10:
+            ids = np.sort(rng.choice(len(pool), min(s.features_per_stage, len(pool)), replace=False))
+            samples = np.concatenate([pos, wneg])
+            labels = np.concatenate([np.ones(len(pos)), -np.ones(len(wneg))])
+            res = train_stage(_binned_values(samples, pool, ids, s.n_bins, rng), labels, ids,
+                              s.wake_min_hit_rate, s.wake_max_false_alarm, s.max_weak_count, s.n_bins,
+                              s.weight_trim_rate, rng)
+            res.stage.info["wake"] = True
+            cascade.stages.append(res.stage)
+            record["wake_stage"] = {"n_weak": len(res.stage.feature), "hit_rate": res.hit_rate,
+                                    "false_alarm": res.false_alarm, "n_neg": int(len(wneg)),
+                                    "seconds": round(time.perf_counter() - t0, 1)}
+            log(f"  wake stage: {len(res.stage.feature)} stumps, HR {res.hit_rate:.4f}, FA {res.false_alarm:.3f}")
+    record["n_stages"] = cascade.n_stages
+    record["training_time_s"] = round(time.perf_counter() - t_start, 1)
+    _save(cascade, out_xml, record)
+    log(f"[train-cascade] {cascade.n_stages} stages in {record['training_time_s']:.0f} s "
+        f"({stop_reason}); wrote {out_xml}")
+    return cascade, record
+
+
+def _save(cascade: Cascade, out_xml: Path, record: dict) -> None:
+    write_cascade_xml(cascade, out_xml, comment=f"seawatch boat cascade, {cascade.n_stages} stages")
+    out_xml.with_suffix(".json").write_text(json.dumps(record, indent=1, default=float) + "\n", encoding="utf-8")

@@ -1,0 +1,136 @@
+"""The paper A cascade detector: detection on synthetic scenes, filters, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from seawatch.detect.cascade import CascadeDetector, default_model_path
+from seawatch.detect.horizon import Horizon
+from seawatch.train.recipe import match_counts
+from seawatch.train.samples import LabelledImage
+from seawatch.train.synthetic import boat_scene
+from seawatch.train.trainer import TrainSettings, train_cascade
+from seawatch.types import Detector, Frame, Modality
+
+
+def _scene(seed, **kw):
+    kw = {"clutter": 12, "coast": seed % 2 == 1, **kw}
+    return boat_scene(seed, **kw)
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    images = []
+    for i in range(14):
+        img, boxes, _ = _scene(100 + i)
+        images.append(LabelledImage(f"syn{i}", "sim", boxes, image=img, group="syn", order=float(i)))
+    s = TrainSettings(
+        n_stages=8, features_per_stage=600, feature_pos_step_px=3, feature_size_step_px=3,
+        max_positives=500, n_aug={"sim": 8}, neg_per_pos=1.5, max_weak_count=30,
+        max_scan_windows=3e6, wake_stage=True, time_budget_s=60, seed=3,
+    )
+    negatives = []
+    for i in range(10):  # boat-free scenes full of clutter
+        img, _, _ = _scene(300 + i, n_boats=0, clutter=30)
+        negatives.append(LabelledImage(f"neg{i}", "sim", np.zeros((0, 4)), image=img, group="neg", order=float(i)))
+    xml = tmp_path_factory.mktemp("det") / "boats.xml"
+    train_cascade(images, xml, s, negative_images=negatives, log=lambda m: None)
+    return xml
+
+
+def _detector(model, **kw):
+    kw = {"min_size_px": 36.0, "min_neighbors": 2, **kw}
+    return CascadeDetector(model, **kw)
+
+
+def test_is_a_detector_and_finds_synthetic_boats(model):
+    det = _detector(model)
+    assert isinstance(det, Detector) and det.name == "cascade"
+    tp = fp = fn = 0
+    for k in range(6):
+        img, boxes, _ = _scene(600 + k)
+        det.reset()
+        d = det.detect(Frame(img, t_s=0.04 * k, index=k))
+        assert d.source == "cascade" and d.frame_index == k and len(d.scores) == len(d.boxes)
+        a, b, c = match_counts(d.boxes, boxes, 0.3)
+        tp, fp, fn = tp + a, fp + b, fn + c
+    assert tp >= 0.75 * (tp + fn)
+    assert fp <= 0.35 * (tp + fp)
+
+
+def test_grey_colour_and_ir_inputs_agree(model):
+    img, boxes, _ = _scene(610)
+    det = _detector(model)
+    grey = det.detect(Frame(img, 0.0, 0)).boxes
+    det.reset()
+    colour = det.detect(Frame(np.dstack([img, img, img]), 0.0, 0)).boxes
+    np.testing.assert_allclose(grey, colour)
+    assert len(grey) >= 1
+    # a 16-bit thermal frame of the same scene, normalised by the percentile stretch
+    ir = (1000 + img.astype(np.uint16) * 16).astype(np.uint16)
+    det.reset()
+    d_ir = det.detect(Frame(ir, 0.0, 0, modality=Modality.IR))
+    tp, _, _ = match_counts(d_ir.boxes, boxes, 0.3)
+    assert tp >= 1
+
+
+def test_bad_frames_are_counted_not_raised(model):
+    det = _detector(model)
+    d = det.detect(Frame(np.zeros((0, 0), np.uint8), 0.0, 3))
+    assert len(d) == 0 and d.frame_index == 3
+    d = det.detect(Frame(np.zeros((10, 10, 2), np.uint8), 0.0, 4))
+    assert len(d) == 0
+    assert det.n_bad_frames == 2
+    small = det.detect(Frame(np.full((12, 20), 100, np.uint8), 0.0, 5))  # smaller than the window
+    assert len(small) == 0 and det.n_bad_frames == 2
+
+
+def test_missing_or_invalid_model(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.xml"):
+        CascadeDetector(tmp_path / "nope.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<opencv_storage></opencv_storage>\n")
+    with pytest.raises(ValueError, match="bad.xml"):
+        CascadeDetector(bad)
+    with pytest.raises(TypeError):
+        CascadeDetector(default_model_path() if default_model_path().is_file() else bad, no_such_param=1)
+
+
+def test_horizon_filter_removes_boats_on_the_coast(model):
+    # a boat pasted above a water-coast line (on the quay) is dropped by the horizon filter only
+    img, boxes, (yl, yr) = _scene(620, coast=True, horizon_px=120.0, n_boats=1, clutter=0)
+    boat = img[int(boxes[0, 1]) - 4:int(boxes[0, 1] + boxes[0, 3]) + 4, int(boxes[0, 0]) - 4:int(boxes[0, 0] + boxes[0, 2]) + 4]
+    img2 = img.copy()
+    y0 = int(min(yl, yr)) - boat.shape[0] - 30
+    x0 = 10 if boxes[0, 0] > 160 else 320 - boat.shape[1] - 10
+    img2[y0:y0 + boat.shape[0], x0:x0 + boat.shape[1]] = boat
+    on = _detector(model)
+    off = _detector(model, horizon_filter=False)
+    d_on = on.detect(Frame(img2, 0.0, 0))
+    d_off = off.detect(Frame(img2, 0.0, 0))
+    assert on.horizon is not None and on.horizon.kind == "coast"
+    above = lambda d: int(((d.boxes[:, 1] + d.boxes[:, 3] / 2) < on.horizon.row_at(d.boxes[:, 0])).sum())
+    assert above(d_off) >= 1
+    assert above(d_on) == 0
+    assert match_counts(d_on.boxes, boxes, 0.3)[0] == 1
+
+
+def test_detection_scale_follows_smallest_boat(model):
+    det = _detector(model, min_size_px=30.0)
+    z = det.detection_scale(320)
+    assert z == pytest.approx(60 * det.ratio_w / 30.0)
+    assert _detector(model, min_size_px=0.0).detection_scale(1920) == pytest.approx(60 * det.ratio_w / 120.0)
+    assert _detector(model, detection_width_px=640).detection_scale(320) == pytest.approx(2.0)
+
+
+def test_shipped_model_loads():
+    path = default_model_path()
+    if not path.is_file():
+        pytest.skip("no shipped model yet")
+    det = CascadeDetector()
+    assert det.window == (60, 30)
+    assert 0.3 < det.ratio_w <= 1.0 and 0.3 < det.ratio_h <= 1.2
+    img, _, _ = _scene(630)
+    d = det.detect(Frame(img, 0.0, 0))
+    assert d.boxes.shape[1] == 4
