@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from seawatch.eval import clear_mot, detection_metrics
-from seawatch.io.gt import (GTFormatError, read_annotations, read_argos_xml, read_coral, read_fvessel,
-                            read_jsonl, read_mardct, read_mot)
+from seawatch.io.gt import (GTFormatError, latlon_to_local_m, read_annotations, read_argos_xml, read_coral,
+                            read_fvessel, read_jsonl, read_mardct, read_mot)
 
 
 def test_mot_reader_frames_are_zero_based_and_bad_rows_reported(tmp_path):
@@ -109,8 +109,28 @@ def test_jsonl_reader_world_and_errors(tmp_path):
                  json.dumps({"frame": 2, "box": [1, 2, 3, 4], "lat": 91, "lon": 0}) + "\n")
     a = read_jsonl(p, camera_id="cam0")
     assert a.frame.tolist() == [0, 1] and a.ids.tolist() == [3, 3]
-    assert a.world is not None and a.world.shape == (2, 2)
-    assert a.world[1, 1] - a.world[0, 1] == pytest.approx(111.2, abs=0.2)  # 0.001 deg north
+    assert a.world is None and a.latlon.shape == (2, 2)
+    local = latlon_to_local_m(a.latlon, a.latlon[0])
+    np.testing.assert_allclose(local[0], [0, 0], atol=1e-9)
+    assert local[1, 1] == pytest.approx(111.2, abs=0.2)  # 0.001 deg north
     assert [e.split(":")[1] for e in a.errors] == ["4", "5", "6"]
     assert "lat 91" in a.errors[2]
     assert len(read_annotations(p)) == 3
+
+
+def test_world_positions_share_one_origin(tmp_path):
+    from seawatch.eval.report import evaluate
+
+    # ground truth with enu_m and lat/lon (as the simulator writes), tracks with lat/lon only,
+    # one track row without a position (AIS not yet associated)
+    gt = tmp_path / "gt.jsonl"
+    pr = tmp_path / "tracks.jsonl"
+    gt.write_text("\n".join(json.dumps({"frame": t, "id": 1, "box": [10, 10, 20, 10], "enu_m": [500.0 + t, 0, 0],
+                                         "lat": 50.0, "lon": -1.0 + 1e-4 * t}) for t in range(3)) + "\n")
+    rows = [{"frame": t, "id": 4, "box": [10, 10, 20, 10], "lat": 50.0 + 9e-5, "lon": -1.0 + 1e-4 * t}
+            for t in range(2)] + [{"frame": 2, "id": 4, "box": [10, 10, 20, 10]}]
+    pr.write_text("\n".join(json.dumps(r) for r in rows) + "\n")
+    res = evaluate(read_jsonl(gt), read_jsonl(pr), ospa_cutoff_m=50.0)
+    assert res["world_source"] == "lat/lon"
+    # 9e-5 deg north = 10.0 m in frames 0 and 1; frame 2 has no predicted position: cut-off 50
+    np.testing.assert_allclose(res["ospa"]["per_frame"], [10.0, 10.0, 50.0], atol=0.02)

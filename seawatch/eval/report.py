@@ -63,14 +63,33 @@ def evaluate(gt, pred, iou: float = 0.5, frames=None, ospa_cutoff_m: float = 50.
         res["identity"] = identity_metrics(prep, None, iou=iou)
     if _has_ids(gt):
         res["melt"] = melt(prep, None)
-    gw, pw = getattr(gt, "world", None), getattr(pred, "world", None)
-    if gw is not None and pw is not None:
-        gpts = {k: v for k, v in gt.per_frame(world=True).items()}
-        ppts = {k: v for k, v in pred.per_frame(world=True).items()}
+    world = _world_points(gt, pred)
+    if world is not None:
+        gpts, ppts, res["world_source"] = world
         res["ospa"] = ospa(gpts, ppts, cutoff_m=ospa_cutoff_m, p=ospa_p, frames=axis)
         res["gospa"] = gospa(gpts, ppts, cutoff_m=ospa_cutoff_m, p=ospa_p, frames=axis)
     res["summary"] = _summary(res)
     return res
+
+
+def _world_points(gt, pred):
+    """Per-frame world points of both inputs in one metric frame, or None.
+
+    Latitude/longitude on both sides is preferred (both converted to metres east/north of the
+    ground truth's mean position); otherwise ``world`` metres (e.g. ``enu_m``) on both sides.
+    Rows without a position are left out.
+    """
+    from seawatch.io.gt import latlon_to_local_m
+
+    gl, pl = getattr(gt, "latlon", None), getattr(pred, "latlon", None)
+    if gl is not None and pl is not None and np.isfinite(gl).all(axis=1).any():
+        origin = np.nanmean(gl, axis=0)
+        return (gt.per_frame(world=True, points=latlon_to_local_m(gl, origin)),
+                pred.per_frame(world=True, points=latlon_to_local_m(pl, origin)), "lat/lon")
+    gw, pw = getattr(gt, "world", None), getattr(pred, "world", None)
+    if gw is not None and pw is not None and gw.shape[1] == pw.shape[1]:
+        return gt.per_frame(world=True), pred.per_frame(world=True), "world (enu_m)"
+    return None
 
 
 def _summary(res: dict) -> dict:

@@ -22,7 +22,7 @@ Formats
 ``read_argos_xml`` Sapienza / ARGOS XML ``<frame number><objectlist><object id><box h w xc yc/>``
                   (box centre and size).
 ``read_jsonl``    seawatch JSON Lines (``docs/formats.md``): ``frame`` (0-based), ``box``,
-                  optional ``id``, ``score``, ``enu_m`` or ``lat``/``lon`` (world coordinates).
+                  optional ``id``, ``score``, ``enu_m`` and ``lat``/``lon`` (world positions).
 ``read_annotations`` picks one of them from ``format`` or the file name.
 """
 
@@ -39,7 +39,7 @@ import numpy as np
 
 __all__ = [
     "Annotations", "GTFormatError", "read_mot", "read_mardct", "read_fvessel", "read_coral",
-    "read_argos_xml", "read_jsonl", "read_annotations", "FORMATS",
+    "read_argos_xml", "read_jsonl", "read_annotations", "latlon_to_local_m", "FORMATS",
 ]
 
 FORMATS = ("mot", "mardct", "fvessel", "coral", "argos", "jsonl")
@@ -60,7 +60,9 @@ class Annotations:
     boxes : (K, 4) float64 ``x, y, w, h`` pixels, 0-based.
     scores : (K,) float64 confidence (1 where the format has none).
     frames : (F,) int64 every annotated frame, including empty ones.
-    world : optional (K, D) float64 world coordinates in metres (east, north[, up]).
+    world : optional (K, D) float64 world coordinates in metres (e.g. ``enu_m``), NaN rows where
+        a row has none.
+    latlon : optional (K, 2) float64 latitude, longitude in degrees, NaN rows where unknown.
     source : the file or folder read.
     errors : ``"<file>:<line>: <reason>"`` for each skipped row.
     names : optional per-frame names (e.g. CORAL image file names), aligned with ``frames``.
@@ -75,6 +77,7 @@ class Annotations:
     errors: list[str] = field(default_factory=list)
     world: np.ndarray | None = None
     names: list[str] | None = None
+    latlon: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -87,12 +90,18 @@ class Annotations:
     def has_ids(self) -> bool:
         return bool(len(self.ids)) and bool(np.all(self.ids >= 0))
 
-    def per_frame(self, world: bool = False) -> dict:
-        """``frame -> (ids, boxes)`` (``(ids, points)`` with ``world``), every annotated frame."""
-        vals = self.world if world else self.boxes
+    def per_frame(self, world: bool = False, points: np.ndarray | None = None) -> dict:
+        """``frame -> (ids, boxes)``, every annotated frame.
+
+        With ``world`` the values are the world points instead (or the given ``(K, D)``
+        ``points``), and rows without a finite position are left out.
+        """
+        vals = (self.world if points is None else points) if world else self.boxes
         if vals is None:
             raise ValueError(f"{self.source}: no world coordinates")
         order = np.argsort(self.frame, kind="stable")
+        if world:
+            order = order[np.all(np.isfinite(vals[order]), axis=1)]
         f = self.frame[order]
         out = {}
         cuts = np.searchsorted(f, self.frames, side="left").tolist() + [len(f)]
@@ -106,7 +115,7 @@ class Annotations:
         """The rows selected by a boolean mask (the frame list is kept)."""
         return Annotations(self.frame[mask], self.ids[mask], self.boxes[mask], self.scores[mask], self.frames,
                            self.source, list(self.errors), None if self.world is None else self.world[mask],
-                           self.names)
+                           self.names, None if self.latlon is None else self.latlon[mask])
 
 
 class _Rows:
@@ -116,6 +125,7 @@ class _Rows:
         self.source = str(source)
         self.strict = strict
         self.frame, self.ids, self.boxes, self.scores, self.world = [], [], [], [], []
+        self.latlon: list = []
         self.errors: list[str] = []
         self.frames: set = set()
 
@@ -125,7 +135,7 @@ class _Rows:
             raise GTFormatError(msg)
         self.errors.append(msg)
 
-    def add(self, where, line, frame, oid, box, score=1.0, world=None) -> bool:
+    def add(self, where, line, frame, oid, box, score=1.0, world=None, latlon=None) -> bool:
         box = [float(v) for v in box]
         if not all(math.isfinite(v) for v in box):
             self.error(where, line, f"non-finite box {box}")
@@ -141,16 +151,21 @@ class _Rows:
         self.boxes.append(box)
         self.scores.append(score)
         self.world.append(world)
+        self.latlon.append(latlon)
         self.frames.add(frame)
         return True
 
     def build(self, frames=None, names=None) -> Annotations:
         n = len(self.frame)
-        world = None
-        if n and all(w is not None for w in self.world):
-            dims = {len(w) for w in self.world}
-            if len(dims) == 1:
-                world = np.asarray(self.world, dtype=np.float64).reshape(n, -1)
+        world = latlon = None
+        dims = {len(w) for w in self.world if w is not None}
+        if n and len(dims) == 1:
+            d = dims.pop()
+            world = np.asarray([w if w is not None else [np.nan] * d for w in self.world],
+                               dtype=np.float64).reshape(n, d)
+        if n and any(ll is not None for ll in self.latlon):
+            latlon = np.asarray([ll if ll is not None else [np.nan, np.nan] for ll in self.latlon],
+                                dtype=np.float64).reshape(n, 2)
         allf = set(self.frames) if frames is None else set(frames) | set(self.frames)
         dtype = np.float64 if any(isinstance(f, float) for f in allf) else np.int64
         return Annotations(
@@ -159,7 +174,7 @@ class _Rows:
             np.asarray(self.boxes, dtype=np.float64).reshape(n, 4),
             np.asarray(self.scores, dtype=np.float64).reshape(n),
             np.asarray(sorted(allf), dtype=dtype),
-            self.source, self.errors, world, names,
+            self.source, self.errors, world, names, latlon,
         )
 
 
@@ -403,12 +418,11 @@ def read_jsonl(path, camera_id: str | None = None, strict: bool = False) -> Anno
     """seawatch JSON Lines detections / tracks / ground truth (``docs/formats.md``).
 
     Keys: ``frame`` (0-based), ``box`` ``[x, y, w, h]``, optional ``id`` and ``score``, optional
-    world position ``enu_m`` ``[e, n, u]`` or ``lat``/``lon`` (turned into metres east/north of
-    the mean position, equirectangular, fine over a few km).  ``camera_id`` keeps one camera.
+    world position ``enu_m`` (into ``world``) and ``lat``/``lon`` (into ``latlon``; see
+    :func:`latlon_to_local_m`).  ``camera_id`` keeps one camera.
     """
     p = _need_file(path)
     rows = _Rows(p, strict)
-    latlon = []
     for no, s in _lines(p):
         try:
             r = json.loads(s)
@@ -430,30 +444,37 @@ def read_jsonl(path, camera_id: str | None = None, strict: bool = False) -> Anno
         except (KeyError, TypeError, ValueError) as exc:
             rows.error(p, no, f"missing or bad field: {exc}")
             continue
-        world = None
+        world = latlon = None
         if r.get("enu_m") is not None:
             try:
                 world = [float(v) for v in r["enu_m"]]
             except (TypeError, ValueError):
                 rows.error(p, no, "bad enu_m")
                 continue
-        elif r.get("lat") is not None and r.get("lon") is not None:
-            lat, lon = float(r["lat"]), float(r["lon"])
+        if r.get("lat") is not None and r.get("lon") is not None:
+            try:
+                lat, lon = float(r["lat"]), float(r["lon"])
+            except (TypeError, ValueError):
+                rows.error(p, no, "bad lat/lon")
+                continue
             if not (-90 <= lat <= 90 and -180 <= lon <= 180):
                 rows.error(p, no, f"position out of range: lat {lat}, lon {lon}")
                 continue
-            world = ("ll", lat, lon)
-        if rows.add(p, no, frame, oid, box, score, world):
-            if isinstance(world, tuple):
-                latlon.append(len(rows.frame) - 1)
-    if latlon:
-        ll = np.array([rows.world[i][1:] for i in latlon])
-        lat0, lon0 = ll.mean(axis=0)
-        east = np.radians(ll[:, 1] - lon0) * _EARTH_R_M * np.cos(np.radians(lat0))
-        north = np.radians(ll[:, 0] - lat0) * _EARTH_R_M
-        for k, i in enumerate(latlon):
-            rows.world[i] = [float(east[k]), float(north[k])]
+            latlon = [lat, lon]
+        rows.add(p, no, frame, oid, box, score, world, latlon)
     return rows.build()
+
+
+def latlon_to_local_m(latlon: np.ndarray, origin_deg: tuple[float, float]) -> np.ndarray:
+    """``(K, 2)`` latitude/longitude degrees to metres east/north of ``origin_deg`` (lat, lon).
+
+    Equirectangular approximation, accurate to well under 0.1 % over a few kilometres.
+    """
+    ll = np.asarray(latlon, dtype=np.float64).reshape(-1, 2)
+    lat0, lon0 = float(origin_deg[0]), float(origin_deg[1])
+    east = np.radians(ll[:, 1] - lon0) * _EARTH_R_M * np.cos(np.radians(lat0))
+    north = np.radians(ll[:, 0] - lat0) * _EARTH_R_M
+    return np.stack([east, north], axis=1)
 
 
 # ------------------------------------------------------------------------------- dispatcher
