@@ -84,3 +84,13 @@ def test_eval_mardct_scores_only_annotated_frames(tmp_path, capsys):
     assert (rep["summary"]["TP"], rep["summary"]["FP"], rep["summary"]["FN"]) == (1, 1, 0)
     assert "MOTA" not in rep["summary"]  # no identities
     assert sorted(p.name for p in out.iterdir()) == ["report.json", "report.md"]
+
+
+def test_eval_detections_with_repeated_ids_skip_tracking(tmp_path, capsys):
+    gt = tmp_path / "clip-01_gt_tracking.txt"
+    gt.write_text("2,0,308,683,439,84,1,1,1,1\n2,1,1355,647,125,55,1,1,1,1\n")
+    det = tmp_path / "clip-01_gt_detection.txt"
+    det.write_text("2,0,308,683,439,84,1,1,1,1\n2,0,1355,647,125,55,1,1,1,1\n")
+    assert main(["eval", "--gt", str(gt), "--pred", str(det)]) == 0
+    out = capsys.readouterr().out
+    assert "no usable identities" in out and "MOTA" not in out and "F1" in out

@@ -25,9 +25,17 @@ from seawatch.eval.ospa import gospa, ospa
 __all__ = ["evaluate", "format_summary", "write_report", "to_jsonable"]
 
 
-def _has_ids(a) -> bool:
-    ids = np.asarray(getattr(a, "ids", np.zeros(0)))
-    return bool(len(ids)) and bool(np.all(ids >= 0))
+def _has_ids(fs) -> bool:
+    """True when every object has an id and no id repeats within a frame (a track file)."""
+    from seawatch.eval.matching import check_unique_ids
+
+    if len(fs.ids) == 0 or np.any(fs.ids < 0):
+        return False
+    try:
+        check_unique_ids(fs.fidx, fs.ids, "", fs.frames)
+    except ValueError:
+        return False
+    return True
 
 
 def evaluate(gt, pred, iou: float = 0.5, frames=None, ospa_cutoff_m: float = 50.0, ospa_p: float = 1.0) -> dict:
@@ -55,13 +63,18 @@ def evaluate(gt, pred, iou: float = 0.5, frames=None, ospa_cutoff_m: float = 50.
     res: dict = {"iou": float(iou), "frames": axis, "n_frames": int(len(axis))}
     res["detection"] = detection_metrics(prep, None, iou=iou)
     res["mete"] = mete(prep, None)
-    tracked = _has_ids(gt) and _has_ids(pred)
-    if tracked:
+    gt_ids, pred_ids = _has_ids(prep.g), _has_ids(prep.p)
+    res["notes"] = []
+    for who, ok, n in (("ground truth", gt_ids, len(prep.g)), ("predictions", pred_ids, len(prep.p))):
+        if not ok and n:
+            res["notes"].append(f"{who}: no usable identities (missing, or repeated within a frame); "
+                                "tracking metrics skipped")
+    if gt_ids and pred_ids:
         res["clear_motchallenge"] = clear_mot(prep, None, iou=iou, variant="motchallenge")
         res["clear_vace"] = clear_mot(prep, None, iou=iou, variant="vace")
         res["hota"] = hota(prep, None)
         res["identity"] = identity_metrics(prep, None, iou=iou)
-    if _has_ids(gt):
+    if gt_ids:
         res["melt"] = melt(prep, None)
     world = _world_points(gt, pred)
     if world is not None:
@@ -137,6 +150,7 @@ def format_summary(res: dict, title: str = "") -> str:
     s = res["summary"]
     lines = [title] if title else []
     lines.append(f"{res['n_frames']} frames, IoU threshold {res['iou']:g}")
+    lines += [f"note: {n}" for n in res.get("notes", [])]
     w = max(len(k) for k in s)
     for k, v in s.items():
         note = _HELP.get(k, "")
@@ -227,7 +241,9 @@ def _markdown(res: dict, plots: list[Path], meta: dict) -> str:
     lines = ["# seawatch evaluation report", ""]
     for k, v in meta.items():
         lines.append(f"- **{k}**: {v}")
-    lines += ["", f"{res['n_frames']} frames scored, IoU threshold {res['iou']:g}.", "",
+    lines += ["", f"{res['n_frames']} frames scored, IoU threshold {res['iou']:g}."]
+    lines += [f"Note: {n}." for n in res.get("notes", [])]
+    lines += ["",
               "| metric | value | note |", "| --- | ---: | --- |"]
     for k, v in res["summary"].items():
         lines.append(f"| {k} | {_fmt(v)} | {_HELP.get(k, '')} |")
