@@ -9,9 +9,12 @@ The global layer (:class:`GlobalLayer`), whenever asked for an estimate at time 
 
 1. takes the latest beliefs of every sensor heard within ``window_s``;
 2. samples particles from them, as many per belief as its weight times ``exp(-age / decay_s)``
-   (older beliefs count less), each particle weighed by the same decay; with ``extrapolate`` a
+   (older beliefs count less), each particle weighed by the same decay times the belief's
+   Gaussian density at the particle (so that clusters are seeded at the beliefs' centres); with ``extrapolate`` a
    belief's mean is first moved along its velocity to ``t`` (sensors report at different times);
-3. clusters the particles with KClusterize (:mod:`.kclusterize`);
+3. clusters the particles with KClusterize (:mod:`.kclusterize`); each belief feeds the cluster
+   holding most of its particles (clusters fed by no belief, fragments of a wide belief, are
+   left out);
 4. associates the clusters with global tracks: first through the identities already linked
    (a sensor's local track id stays linked to the global track it fed), then by distance to the
    tracks' predicted positions (Hungarian, gated), then by re-identification against recently
@@ -107,6 +110,9 @@ class GlobalLayer:
         Re-identification of new clusters against lost global tracks: remembered this long; the
         displacement must point along the lost velocity within ``reid_angle_deg`` at a speed
         within ``reid_speed_ratio`` of it (tested only above ``min_speed`` units/s).
+    min_sigma : float
+        Beliefs are sampled with at least this spread (default ``delta / 4``), so that two
+        sensors' slightly different reports of one vessel make one Gaussian cluster, not two.
     extrapolate : bool
         Move each belief along its velocity to the update time.
     seed : int
@@ -125,6 +131,7 @@ class GlobalLayer:
         reid_angle_deg: float = 10.0,
         reid_speed_ratio: float = 0.5,
         min_speed: float = 0.5,
+        min_sigma: float = 0.0,
         extrapolate: bool = True,
         seed: int = 0,
     ) -> None:
@@ -142,6 +149,7 @@ class GlobalLayer:
         self.reid_angle_deg = float(reid_angle_deg)
         self.reid_speed_ratio = float(reid_speed_ratio)
         self.min_speed = float(min_speed)
+        self.min_sigma = float(min_sigma) if min_sigma > 0 else self.delta / 4.0
         self.extrapolate = bool(extrapolate)
         self.rng = np.random.default_rng(seed)
         self.latest: dict[str, np.ndarray] = {}  # sensor -> its latest beliefs
@@ -198,9 +206,11 @@ class GlobalLayer:
         if len(allb) and mass.sum() > 0:
             mean = allb["mean"] + (allb["velocity"] * age[:, None] if self.extrapolate else 0.0)
             counts = np.maximum(np.round(self.num_particles * mass / mass.sum()).astype(np.int64), 5)
-            sig = np.maximum(allb["sigma"], 1e-6)
+            sig = np.maximum(allb["sigma"], self.min_sigma)
             pts, comp = sample_gaussians(mean, sig, counts, self.rng)
-            pw = decay[comp]
+            # weight: the belief's age decay times its density at the particle (seeds at centres)
+            r2 = np.sum(((pts - mean[comp]) / sig[comp]) ** 2, axis=1)
+            pw = decay[comp] * np.exp(-0.5 * r2)
             clusters = kclusterize(pts, pw, self.delta, min_size=3)
 
         # 3-4. clusters -> global tracks
@@ -210,28 +220,31 @@ class GlobalLayer:
             tab = np.zeros((len(allb), K + 1), np.int64)
             np.add.at(tab, (comp, clusters.labels + 1), 1)
             share = tab[:, 1:] / np.maximum(tab.sum(1, keepdims=True), 1)
-            contrib = share >= 0.3  # (beliefs, clusters)
+            # each belief feeds the cluster holding most of its particles; a cluster fed by no
+            # belief is a fragment of a wide one and is left out
+            home = np.where(share.max(1) > 0, share.argmax(1), -1)
+            contrib = home[:, None] == np.arange(K)[None, :]  # (beliefs, clusters)
+            fed = contrib.any(0)
             c_vel = np.zeros((K, 2))
-            for c in range(K):
-                bw = mass * share[:, c]
-                if bw.sum() > 0:
-                    c_vel[c] = (allb["velocity"] * bw[:, None]).sum(0) / bw.sum()
+            for c in np.flatnonzero(fed):
+                bw = mass * contrib[:, c]
+                c_vel[c] = (allb["velocity"] * bw[:, None]).sum(0) / max(bw.sum(), 1e-300)
             assigned: dict[int, int] = {}  # cluster -> global id
             taken: set[int] = set()
             # (a) through linked identities, heaviest cluster first
-            for c in range(K):
+            for c in np.flatnonzero(fed):
                 votes: dict[int, float] = {}
                 for b in np.flatnonzero(contrib[:, c]):
                     g = self.links.get(keys[b])
                     if g is not None and g in self.tracks:
-                        votes[g] = votes.get(g, 0.0) + share[b, c] * mass[b]
+                        votes[g] = votes.get(g, 0.0) + mass[b]
                 for g, _ in sorted(votes.items(), key=lambda kv: (-kv[1], kv[0])):
                     if g not in taken:
                         assigned[c] = g
                         taken.add(g)
                         break
             # (b) by distance to the predicted tracks
-            free_c = [c for c in range(K) if c not in assigned]
+            free_c = [int(c) for c in np.flatnonzero(fed) if c not in assigned]
             free_g = [g for g in sorted(self.tracks) if g not in taken]
             if free_c and free_g:
                 pos = np.array([self.tracks[g]["mean"] for g in free_g])
@@ -244,7 +257,7 @@ class GlobalLayer:
                         taken.add(free_g[b])
             # (c) re-identification against lost tracks, (d) new ids
             self.lost = [lt for lt in self.lost if t - lt["t_lost"] <= self.reid_memory_s]
-            for c in range(K):
+            for c in np.flatnonzero(fed):
                 if c in assigned:
                     continue
                 g = self._reidentify(clusters.means[c], t)

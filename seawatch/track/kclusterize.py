@@ -16,7 +16,9 @@ The steps, for points ``p_i`` with weights ``w_i`` and a radius ``delta``:
 4. **Gaussianity.**  A cluster whose diameter (distance between its two farthest particles)
    exceeds ``delta`` is split around those two particles (a weighted 2-means started from them);
    the split is kept when the two halves are separated (Ashman's D along the axis joining them
-   above ``split_d``) and each keeps ``min_size`` particles.  Kept halves are tested again,
+   above ``split_d``, and a density dip between their centres: a smoothed histogram of the
+   particles along that axis falls, between the centres, below half of its highest bin on
+   either side) and each keeps ``min_size`` particles.  Kept halves are tested again,
    recursively, up to ``max_depth`` levels.
 5. **Merge.**  Of two clusters whose means are closer than ``merge_frac * delta`` the heavier is
    kept and absorbs the lighter.
@@ -28,7 +30,8 @@ so clustering 500 particles costs tens of microseconds.
 Deviation from the paper: the paper splits every cluster whose diameter exceeds ``delta``; here
 the split is kept only when the halves are separated (step 4), because the diameter of a plain
 Gaussian cloud of a few hundred particles exceeds ``delta`` as soon as its sigma exceeds about
-``delta / 6``, and splitting those would break one target into several.
+``delta / 6``, and splitting those (or unimodal mixtures of a narrow and a wide Gaussian, as
+when two sensors report one vessel with different spreads) would break one target into several.
 """
 
 from __future__ import annotations
@@ -267,6 +270,44 @@ def _try_split(points, weights, members, delta, split_d, min_size):
     var = v0 / w0 + v1 / w1
     d = np.sqrt(2.0) * sep / np.sqrt(max(var, 1e-12))
     if d <= split_d:
+        return empty
+    # and a density dip between the two centres: along the axis, a smoothed 16-bin histogram
+    # must fall, somewhere between them, below half of its highest bin on either side
+    nbin = 16
+    tmin = np.inf
+    tmax = -np.inf
+    proj = np.empty(m)
+    for k in range(m):
+        px, py = points[members[k], 0], points[members[k], 1]
+        proj[k] = (px - c0x) * ux + (py - c0y) * uy
+        tmin = min(tmin, proj[k])
+        tmax = max(tmax, proj[k])
+    width = (tmax - tmin) / nbin
+    if width <= 0:
+        return empty
+    hist = np.zeros(nbin)
+    for k in range(m):
+        b = min(int((proj[k] - tmin) / width), nbin - 1)
+        hist[b] += w[k]
+    sm = np.empty(nbin)
+    for b in range(nbin):
+        lo = hist[b - 1] if b > 0 else 0.0
+        hi = hist[b + 1] if b < nbin - 1 else 0.0
+        sm[b] = 0.25 * lo + 0.5 * hist[b] + 0.25 * hi
+    b0 = min(int((0.0 - tmin) / width), nbin - 1)
+    b1 = min(int((sep - tmin) / width), nbin - 1)
+    found = False
+    for v in range(b0 + 1, b1):
+        left = 0.0
+        for b in range(0, v):
+            left = max(left, sm[b])
+        right = 0.0
+        for b in range(v + 1, nbin):
+            right = max(right, sm[b])
+        if sm[v] < 0.5 * min(left, right):
+            found = True
+            break
+    if not found:
         return empty
     return side
 

@@ -738,10 +738,9 @@ class PTrackingTracker:
         ))
 
     def _process_groups(self, t, cl, supported, c_pos, c_size, c_track, consumed) -> None:
+        """Groups: consume the clusters in their region; update or coast the members; dissolve."""
         bk = self.bank
         for gi, g in enumerate(self.groups):
-            if g is None:
-                continue
             rows = bk.rows_of(np.asarray(g.members, np.int64))
             rows = rows[rows >= 0]
             if len(rows) < 2:
@@ -755,44 +754,57 @@ class PTrackingTracker:
             inside = (supported & ~consumed & (c_track < 0)
                       & (c_pos[:, 0] >= x1 - pad) & (c_pos[:, 0] <= x2 + pad)
                       & (c_pos[:, 1] >= y1 - pad) & (c_pos[:, 1] <= y2 + pad))
+            cand = np.flatnonzero(inside)
             comps = overlap_components(boxes, self.group_shrink)
             still = comps.max() == 0 and t - g.formed_t_s <= self.group_max_s
             if still:
+                # as many observations as members, each matching one: update them all, the
+                # group goes on; fewer (an occlusion): the members coast on their velocities
+                if len(cand) >= len(rows):
+                    pairs = self._match_members(g, rows, cand, c_pos, c_size)
+                    if len(pairs) == len(rows):
+                        self._take(pairs, rows, cand, cl, c_pos, c_size, c_track, t)
                 consumed |= inside
                 continue
             # the group separates: give the members the clusters that come out of it
-            cand = np.flatnonzero(inside)
             self.groups[gi] = None
             bk.group[rows] = -1
             bk.last_t[rows] = np.maximum(bk.last_t[rows], t - 1e-9)  # a fresh coasting period
             if len(cand) == 0:
                 continue
-            cboxes = _box_from(c_pos[cand], c_size[cand])
-            d = np.linalg.norm(bk.pos[rows][:, None, :] - c_pos[cand][None, :, :], axis=2)
-            gate = self._px(self.gate_px)
-            pos_cost = np.where(d <= 2 * gate, 0.1 * d / gate, np.inf)
-            saved = np.array([g.histograms.get(int(u)) if g.histograms.get(int(u)) is not None
-                              else np.zeros(_NB) for u in bk.uid[rows]])
-            ch = self._colour(cboxes)
-            pairs = []
-            if ch is not None and np.all(saved.sum(1) > 0):
-                pairs = [(i, j) for i, j, _ in match_by_colour(saved, ch, self.colour_max_dist,
-                                                              extra_cost=pos_cost)]
-            else:  # no colour: nearest by position
-                cost = np.where(np.isfinite(pos_cost), pos_cost, 1e9)
-                ri, ci = linear_sum_assignment(cost)
-                pairs = [(i, j) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
-            if pairs:
-                pr = rows[[i for i, _ in pairs]]
-                pc = cand[[j for _, j in pairs]]
-                self._update_tracks(pr, c_pos[pc], c_size[pc], cl.sigmas[pc], cl.weights[pc], t, self._dt)
-                c_track[pc] = pr
+            pairs = self._match_members(g, rows, cand, c_pos, c_size)
+            self._take(pairs, rows, cand, cl, c_pos, c_size, c_track, t)
             # the rest of the clusters near the group stay with it for this frame
             consumed[cand[c_track[cand] < 0]] = True
         self.groups = [g for g in self.groups if g is not None]
         for gi, g in enumerate(self.groups):
             rows = bk.rows_of(np.asarray(g.members, np.int64))
             bk.group[rows[rows >= 0]] = gi
+
+    def _match_members(self, g: Group, rows, cand, c_pos, c_size) -> list[tuple[int, int]]:
+        """Pairs (member index, candidate index): by colour (Bhattacharyya below
+        ``colour_max_dist``, a small position term breaking ties) when every member has a saved
+        colour model and there is an image, else by position; both gated."""
+        bk = self.bank
+        d = np.linalg.norm(bk.pos[rows][:, None, :] - c_pos[cand][None, :, :], axis=2)
+        gate = self._px(self.gate_px)
+        pos_cost = np.where(d <= 2 * gate, 0.1 * d / gate, np.inf)
+        saved = [g.histograms.get(int(u)) for u in bk.uid[rows]]
+        ch = self._colour(_box_from(c_pos[cand], c_size[cand])) if all(h is not None for h in saved) else None
+        if ch is not None:
+            return [(i, j) for i, j, _ in match_by_colour(np.array(saved), ch, self.colour_max_dist,
+                                                          extra_cost=pos_cost)]
+        cost = np.where(np.isfinite(pos_cost), pos_cost, 1e9)
+        ri, ci = linear_sum_assignment(cost)
+        return [(int(i), int(j)) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
+
+    def _take(self, pairs, rows, cand, cl, c_pos, c_size, c_track, t) -> None:
+        if not pairs:
+            return
+        pr = rows[[i for i, _ in pairs]]
+        pc = cand[[j for _, j in pairs]]
+        self._update_tracks(pr, c_pos[pc], c_size[pc], cl.sigmas[pc], cl.weights[pc], t, self._dt)
+        c_track[pc] = pr
 
     def _form_groups(self, t: float) -> None:
         bk = self.bank
