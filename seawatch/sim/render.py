@@ -1,0 +1,684 @@
+"""Render EO colour and IR frames of the synthetic world through the camera model, with exact masks.
+
+One frame is built in this order:
+
+1. **background** (cached per camera state): a coarse sky/sea/cloud panorama and a sharp band around
+   the horizon and the coast, resampled through the camera's exact azimuth/elevation of every pixel
+   (computed on a 16-pixel grid and interpolated bilinearly, error far below a pixel);
+2. **sea**: an animated, tileable wave field sampled at each water pixel's sea-surface position,
+   fading with range, with sun glints strongest along the sun's azimuth (one Numba pass);
+3. **wakes and reflections** on the water (they never cover a vessel's pixels);
+4. **vessels**, far to near (occlusion by depth): each a set of convex lofted parts projected with
+   :meth:`CameraModel.enu_to_pixel` (Earth curvature included), back faces culled, faces shaded by
+   the sun, drawn with ``cv2.fillConvexPoly`` into a per-vessel canvas whose non-zero pixels are the
+   vessel's exact mask; the frame and a label image take the same pixels;
+5. IR **halo** around warm vessels, optical blur, **sensor noise** (precomputed Gaussian pools at
+   a random offset per frame) and optional **JPEG** compression.
+
+Ground truth comes from the label image of step 4: a vessel's box is the pixel-aligned extent of
+its visible pixels, its visible fraction = visible pixels / pixels of its unoccluded silhouette
+(including any part outside the image).  Blur, noise and compression act after that, as in a
+real camera, so the box is the vessel's geometric extent, not a threshold of the final image.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from seawatch.camera import CameraModel
+from seawatch.sim._kernels import fill_polys, sea_waves
+from seawatch.sim.texture import (
+    CoastSpec,
+    Panorama,
+    SkySpec,
+    WaveField,
+    build_panorama,
+    periodic_noise,
+)
+from seawatch.sim.world import World
+
+__all__ = ["RenderOptions", "RenderResult", "Renderer"]
+
+_GRID_PX = 16
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """What to draw and how.
+
+    Parameters
+    ----------
+    ir : bool
+        Thermal (one channel, grey levels) instead of colour.
+    waves, wakes, reflections : bool
+        Draw the animated sea texture and glints, the vessels' wakes, their reflections.
+    wave_contrast, glint : float
+        Strength of the wave shading and of the sun glints (0 disables).
+    noise_sigma : float
+        Standard deviation of the sensor noise in grey levels (0 disables).
+    jpeg_quality : int
+        JPEG compression quality (1-100); 0 disables.
+    blur_sigma_px : float
+        Optical blur (Gaussian sigma in pixels); 0 disables.
+    ir_polarity : str
+        "white_hot" or "black_hot".
+    ir_halo : float
+        Strength of the bright halo around warm vessels in IR (0 disables).
+    ir_fixed_pattern : float
+        Amplitude (grey levels) of the IR column fixed-pattern noise.
+    vessel_motion : bool
+        Let vessels heave, roll and pitch in the waves.
+    """
+
+    ir: bool = False
+    waves: bool = True
+    wakes: bool = True
+    reflections: bool = True
+    wave_contrast: float = 1.0
+    glint: float = 1.0
+    noise_sigma: float = 2.0
+    jpeg_quality: int = 0
+    blur_sigma_px: float = 0.0
+    ir_polarity: str = "white_hot"
+    ir_halo: float = 0.6
+    ir_fixed_pattern: float = 2.0
+    vessel_motion: bool = True
+
+
+@dataclass
+class RenderResult:
+    """A rendered image and the exact per-vessel ground truth of that image.
+
+    ``index`` holds the positions (in the world's vessel list) of the vessels whose unoccluded
+    silhouette touches the image; the other arrays are aligned with it.
+    """
+
+    image: np.ndarray
+    index: np.ndarray  # (N,) int
+    boxes: np.ndarray  # (N, 4) visible extent x, y, w, h (pixels, clipped)
+    full_boxes: np.ndarray  # (N, 4) unoccluded extent clipped to the image
+    visible: np.ndarray  # (N,) visible fraction
+    visible_px: np.ndarray  # (N,) int
+    full_px: np.ndarray  # (N,) int (unoccluded, including outside the image)
+    depth_m: np.ndarray  # (N,) range to the vessel
+    label: np.ndarray  # (H, W) uint8: 0 background, k+1 for the k-th vessel of the world
+    water_row: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (W,) top row of the water
+
+
+def _bgr_tuple(c, n: int):
+    return tuple(float(x) for x in np.asarray(c, float)[:n])
+
+
+class _View:
+    """Per camera state: background, sea maps and helpers (cached)."""
+
+    __slots__ = ("bg", "sea_r0", "tx", "ty", "amp", "glint", "hix", "hiy", "water_row", "f_px", "sea_cache")
+
+
+class Renderer:
+    """Renders a :class:`World` seen through camera models.
+
+    Parameters
+    ----------
+    world : World
+    width, height : int
+        Image size.
+    reference_camera : CameraModel
+        The camera's base model (position, base pan); panoramas are built around it.
+    pan_range_deg, tilt_range_deg : (float, float)
+        Absolute pan and tilt extremes the camera will take (shake included).
+    max_zoom : float
+        Largest zoom the camera will take (sets the sharpness of the horizon band).
+    sky : SkySpec
+    coasts : tuple of CoastSpec
+    options : RenderOptions
+    seed : int
+    world_to_camera : (2, 3) array or None
+        Affine map from world (e, n) to this camera's ENU (e, n) (multi-camera worlds); None for
+        the identity.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        width: int,
+        height: int,
+        reference_camera: CameraModel,
+        *,
+        pan_range_deg: tuple[float, float] | None = None,
+        tilt_range_deg: tuple[float, float] | None = None,
+        max_zoom: float = 1.0,
+        max_roll_deg: float = 0.0,
+        sky: SkySpec = SkySpec(),
+        coasts: tuple[CoastSpec, ...] = (),
+        options: RenderOptions = RenderOptions(),
+        seed: int = 0,
+        world_to_camera: np.ndarray | None = None,
+        wave_field: WaveField | None = None,
+        sea_cache_mb: float = 160.0,
+    ):
+        if not (16 <= width <= 8192 and 16 <= height <= 8192):
+            raise ValueError(f"Renderer: image size {width}x{height} out of range")
+        self.world = world
+        self.W, self.H = int(width), int(height)
+        self.options = options
+        self.seed = int(seed)
+        self.sky = sky
+        self.C = 1 if options.ir else 3
+        cam = reference_camera
+        if cam.intrinsics.width != self.W or cam.intrinsics.height != self.H:
+            cam = cam.with_intrinsics(cam.intrinsics.scaled_to(self.W, self.H))
+        self.ref_camera = cam
+        self.height_m = cam.pose.height_m
+        pan0 = cam.pose.pan_deg
+        pr = pan_range_deg or (pan0, pan0)
+        tr = tilt_range_deg or (cam.pose.tilt_deg, cam.pose.tilt_deg)
+        K = cam.intrinsics
+        half_h = math.degrees(math.atan2(math.hypot(K.width, K.height) / 2, K.fx)) + 3.0
+        half_v = math.degrees(math.atan2(math.hypot(K.width, K.height) / 2, K.fy)) + 3.0 + abs(max_roll_deg)
+        self.ref_az = 0.5 * (pr[0] + pr[1])
+        az_span = (pr[0] - self.ref_az - half_h, pr[1] - self.ref_az + half_h)
+        el_span = (max(-89.0, tr[0] - half_v), min(89.0, tr[1] + half_v))
+        ppd_hi = max(4.0, K.fx * max_zoom * math.pi / 180.0 * 1.25)
+        self.horizon_el = cam.horizon_elevation_deg()
+        self.pano: Panorama = build_panorama(
+            ref_az_deg=self.ref_az, az_span_deg=az_span, el_span_deg=el_span,
+            camera_height_m=self.height_m, r_eff_m=cam.r_eff_m, horizon_el_deg=self.horizon_el,
+            sky=sky, coasts=tuple(coasts), ppd_hi=ppd_hi, ppd_lo=min(8.0, ppd_hi), ir=options.ir,
+            seed=self.seed + 101,
+        )
+        wt = self.pano.water_top_deg
+        self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
+        self.waves = wave_field or WaveField(seed=self.seed + 7)
+        self.world_to_camera = None if world_to_camera is None else np.asarray(world_to_camera, float)
+        self._views: OrderedDict[tuple, _View] = OrderedDict()
+        self.sea_cache_mb = float(sea_cache_mb)
+        self._cache_bytes = 0
+        # noise pools (static; a random offset per frame)
+        rng = np.random.default_rng(self.seed + 3)
+        pad = 64
+        self._pad = pad
+        if options.noise_sigma > 0:
+            n = rng.normal(0.0, options.noise_sigma, (self.H + pad, self.W + pad, self.C))
+            self._noise_pos = np.clip(n, 0, 255).astype(np.uint8)
+            self._noise_neg = np.clip(-n, 0, 255).astype(np.uint8)
+        else:
+            self._noise_pos = self._noise_neg = None
+        self._fpn = None
+        if options.ir and options.ir_fixed_pattern > 0:
+            col = rng.normal(0, options.ir_fixed_pattern, self.W)
+            f = np.repeat(col[None, :], self.H, axis=0)[..., None]
+            self._fpn = (np.clip(f, 0, 255).astype(np.uint8), np.clip(-f, 0, 255).astype(np.uint8))
+        foam = periodic_noise(256, 1.2, self.seed + 17)
+        self._foam = (0.55 + 0.45 * foam).astype(np.float32)
+        self._gain = np.array([1.0] if options.ir else [0.55, 0.6, 0.65], np.float32) * 0.9
+        self._foam_col = np.array([sky.ir_sea_far + 25.0] if options.ir else [235.0, 240.0, 240.0], np.float32)
+        self._glint_col = np.array([140.0] if options.ir else [255.0, 255.0, 250.0], np.float32)
+        sun_az, sun_el = math.radians(sky.sun_az_deg), math.radians(sky.sun_el_deg)
+        self._sun = np.array([math.sin(sun_az) * math.cos(sun_el), math.cos(sun_az) * math.cos(sun_el),
+                              math.sin(sun_el)])
+
+    # ------------------------------------------------------------------ background
+    def _view(self, cam: CameraModel) -> _View:
+        p, K = cam.pose, cam.intrinsics
+        key = (round(p.pan_deg, 9), round(p.tilt_deg, 9), round(p.roll_deg, 9), round(K.fx, 6), round(K.fy, 6),
+               round(K.cx, 6), round(K.cy, 6))
+        v = self._views.get(key)
+        if v is not None:
+            self._views.move_to_end(key)
+            if v.sea_cache is None:  # a steady view: keep its animated sea frames
+                v.sea_cache = {}
+            return v
+        v = self._build_view(cam)
+        self._views[key] = v
+        while len(self._views) > 8:
+            _, old = self._views.popitem(last=False)
+            if old.sea_cache:
+                self._cache_bytes -= sum(a.nbytes for a in old.sea_cache.values())
+        return v
+
+    def _build_view(self, cam: CameraModel) -> _View:
+        W, H, s = self.W, self.H, _GRID_PX
+        gw, gh = -(-W // s) + 2, -(-H // s) + 2
+        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
+        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
+        U, V = np.meshgrid(uc, vc)
+        az, el = cam.pixel_to_azel(U, V)
+        az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
+        pano = self.pano
+        lox, loy = pano.lo_xy(az_rel, el)
+        hix, hiy = pano.hi_xy(az_rel, el)
+        # sea-surface texture coordinates, compressed beyond r0 so they stay bounded
+        e, n, r = cam.pixel_to_sea_enu(U, V)
+        f_px = float(cam.intrinsics.fy)
+        h = self.height_m
+        lam = 6.0
+        r_a = math.sqrt(f_px * h * lam / 3.0)
+        r0 = 1.5 * r_a
+        above = ~np.isfinite(r)
+        azr = np.radians(az)
+        r_s = np.where(above, 1e9, r)
+        rc = np.where(r_s < r0, r_s, r0 + r0 * (1.0 - r0 / np.maximum(r_s, r0)))
+        ex, ny = rc * np.sin(azr), rc * np.cos(azr)
+        if self.world_to_camera is not None:  # texture anchored to the world, not the camera
+            A = self.world_to_camera[:, :2]
+            inv = np.linalg.inv(A)
+            ex, ny = inv[0, 0] * ex + inv[0, 1] * ny, inv[1, 0] * ex + inv[1, 1] * ny
+        texel = self.waves.texel_m
+        tx, ty = ex / texel, -ny / texel
+        o = self.options
+        amp = np.where(above, 0.0, o.wave_contrast * np.exp(-(r_s / r_a) ** 2) * (0.35 + 0.65 * np.exp(-r_s / 4000)))
+        daz = (az - self.sky.sun_az_deg + 180.0) % 360.0 - 180.0
+        path = 0.12 + np.exp(-(daz / 18.0) ** 2) * (1.0 if self.sky.sun_el_deg > 0 else 0.0)
+        gl = np.where(above, 0.0, o.glint * path * np.exp(-(r_s / (2.5 * r_a)) ** 2))
+        if not o.waves:
+            amp = amp * 0
+            gl = gl * 0
+
+        def up(*chans):
+            a = np.stack(chans, axis=-1).astype(np.float32)
+            big = cv2.resize(a, (gw * s, gh * s), interpolation=cv2.INTER_LINEAR)
+            return big[s:s + H, s:s + W]
+
+        m1 = up(lox, loy, hix, hiy)
+        m2 = up(tx, ty, amp, gl)
+        lox_f, loy_f = m1[..., 0], m1[..., 1]
+        hix_f, hiy_f = np.ascontiguousarray(m1[..., 2]), np.ascontiguousarray(m1[..., 3])
+        bg = cv2.remap(pano.lo, lox_f, loy_f, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if bg.ndim == 2:
+            bg = bg[..., None]
+        # the sharp band: rows that contain any pixel inside it
+        hmax = cv2.reduce(hiy_f, 1, cv2.REDUCE_MAX).ravel()
+        hmin = cv2.reduce(hiy_f, 1, cv2.REDUCE_MIN).ravel()
+        rows = np.nonzero((hmax >= -1) & (hmin <= pano.hi.shape[0]))[0]
+        if len(rows):
+            b0, b1 = int(rows[0]), int(rows[-1]) + 1
+            dst = np.ascontiguousarray(bg[b0:b1])
+            band = cv2.remap(pano.hi, hix_f[b0:b1], hiy_f[b0:b1], cv2.INTER_LINEAR, dst=dst.squeeze(-1) if self.C == 1 else dst,
+                             borderMode=cv2.BORDER_TRANSPARENT)
+            bg[b0:b1] = band.reshape(dst.shape)
+        # water rows: any pixel below the highest water top
+        wmin = float(self._water_top_y.min())
+        srows = np.nonzero(hmax > wmin)[0]
+        view = _View()
+        view.bg = np.ascontiguousarray(bg)
+        view.hix, view.hiy = hix_f, hiy_f
+        view.f_px = f_px
+        view.sea_cache = None
+        if len(srows):
+            r0_, r1_ = int(srows[0]), int(srows[-1]) + 1
+            view.sea_r0 = r0_
+            view.tx = np.ascontiguousarray(m2[r0_:r1_, :, 0])
+            view.ty = np.ascontiguousarray(m2[r0_:r1_, :, 1])
+            # no waves off the water (above the horizon, on the coast)
+            xi = np.clip(hix_f[r0_:r1_].astype(np.int64), 0, len(self._water_top_y) - 1)
+            dry = hiy_f[r0_:r1_] <= self._water_top_y[xi]
+            amp_ = m2[r0_:r1_, :, 2].copy()
+            gl_ = m2[r0_:r1_, :, 3].copy()
+            amp_[dry] = 0
+            gl_[dry] = 0
+            view.amp = np.ascontiguousarray(amp_)
+            view.glint = np.ascontiguousarray(gl_)
+        else:
+            view.sea_r0 = 0
+            view.tx = view.ty = view.amp = view.glint = np.zeros((0, W), np.float32)
+        # top row of the water in each column (sea horizon or coast water line)
+        xi = np.clip(hix_f.astype(np.int64), 0, len(self._water_top_y) - 1)
+        wt = self._water_top_y[xi]
+        water = hiy_f > wt
+        anyw = water.any(axis=0)
+        view.water_row = np.where(anyw, water.argmax(axis=0), H).astype(np.float64)
+        return view
+
+    # --------------------------------------------------------------------- vessels
+    def _vessel_points(self, t_s: float):
+        """World vertices (e, n, up) of every vessel at ``t_s`` and its pose."""
+        out = []
+        for k, v in enumerate(self.world.vessels):
+            e, n, course, speed = (float(x) for x in v.state(t_s))
+            m = v.model
+            c = math.radians(course)
+            fwd = (math.sin(c), math.cos(c))
+            port = (-math.cos(c), math.sin(c))
+            roll = pitch = heave = 0.0
+            if self.options.vessel_motion:
+                ph = (v.id * 2.399) % (2 * math.pi)
+                small = 1.0 / (1.0 + v.length_m / 15.0)
+                roll = math.radians(5.0 * small) * math.sin(2 * math.pi * t_s / (3.0 + 0.05 * v.length_m) + ph)
+                pitch = math.radians(2.0 * small) * math.sin(2 * math.pi * t_s / (2.5 + 0.04 * v.length_m) + 2 * ph)
+                heave = 0.15 * small * math.sin(2 * math.pi * t_s / 3.1 + 3 * ph)
+            x, y, z = m.verts[:, 0], m.verts[:, 1], m.verts[:, 2]
+            if roll or pitch:
+                cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+                y, z = y * cr - z * sr, y * sr + z * cr
+                x, z = x * cp - z * sp, x * sp + z * cp
+            we = e + x * fwd[0] + y * port[0]
+            wn = n + x * fwd[1] + y * port[1]
+            out.append((we, wn, z + heave, (e, n, course, speed, fwd, port, roll, pitch, heave)))
+        return out
+
+    def _to_cam(self, e, n):
+        if self.world_to_camera is None:
+            return e, n
+        A = self.world_to_camera
+        return A[0, 0] * e + A[0, 1] * n + A[0, 2], A[1, 0] * e + A[1, 1] * n + A[1, 2]
+
+    def _sea_image(self, view: _View, t_s: float) -> np.ndarray:
+        """Background plus animated waves (a fresh array), cached per wave frame for steady views."""
+        o = self.options
+        if not (o.waves and view.tx.shape[0]):
+            return view.bg.copy()
+        fi = self.waves.frame_index(t_s)
+        cache = view.sea_cache
+        if cache is not None:
+            hit = cache.get(fi)
+            if hit is not None:
+                return hit.copy()
+        img = view.bg.copy()
+        sea_waves(img, view.sea_r0, view.tx, view.ty, view.amp, view.glint, self.waves.frame(t_s), 0.0, 0.0,
+                  self._gain, self._glint_col)
+        if cache is not None and self._cache_bytes + img.nbytes <= self.sea_cache_mb * 1e6:
+            cache[fi] = img.copy()
+            self._cache_bytes += img.nbytes
+        return img
+
+    def render(self, t_s: float, cam: CameraModel, frame_seed: int = 0, draw_vessels: bool = True) -> RenderResult:
+        """Render the world at time ``t_s`` through ``cam``.
+
+        Parameters
+        ----------
+        t_s : float
+            World time in seconds.
+        cam : CameraModel
+            The camera (its intrinsics must match the renderer's size, or are rescaled).
+        frame_seed : int
+            Seeds this frame's noise (so any frame renders the same, in any order).
+        draw_vessels : bool
+            False renders the empty scene (sea, sky, coast; no wakes or reflections either).
+        """
+        if cam.intrinsics.width != self.W or cam.intrinsics.height != self.H:
+            cam = cam.with_intrinsics(cam.intrinsics.scaled_to(self.W, self.H))
+        view = self._view(cam)
+        img = self._sea_image(view, t_s)
+        label = np.zeros((self.H, self.W), np.uint8)
+        rows = []
+        if draw_vessels and len(self.world.vessels):
+            for k, full_px, fbox, depth in self._draw_vessels(img, label, t_s, cam):
+                x0, y0, x1, y1 = fbox
+                vm = (label[y0:y1, x0:x1] == k + 1).astype(np.uint8)
+                vpx = int(cv2.countNonZero(vm))
+                if vpx:
+                    bx, by, bw, bh = cv2.boundingRect(vm)
+                    box = (x0 + bx, y0 + by, bw, bh)
+                else:
+                    box = (x0, y0, x1 - x0, y1 - y0)
+                rows.append((k, box, (x0, y0, x1 - x0, y1 - y0), vpx / max(full_px, 1), vpx, full_px, depth))
+        img = self._finish(img, frame_seed)
+        rows.sort(key=lambda r: r[0])
+        return RenderResult(
+            image=img,
+            index=np.array([r[0] for r in rows], np.int64),
+            boxes=np.array([r[1] for r in rows], np.float64).reshape(-1, 4),
+            full_boxes=np.array([r[2] for r in rows], np.float64).reshape(-1, 4),
+            visible=np.array([r[3] for r in rows], np.float64),
+            visible_px=np.array([r[4] for r in rows], np.int64),
+            full_px=np.array([r[5] for r in rows], np.int64),
+            depth_m=np.array([r[6] for r in rows], np.float64),
+            label=label,
+            water_row=view.water_row,
+        )
+
+    def _draw_vessels(self, img, label, t_s, cam: CameraModel):
+        o = self.options
+        pts = self._vessel_points(t_s)
+        sizes = [len(p[0]) for p in pts]
+        bounds = np.cumsum([0] + sizes)
+        E = np.concatenate([p[0] for p in pts])
+        N = np.concatenate([p[1] for p in pts])
+        Z = np.concatenate([p[2] for p in pts])
+        ce, cn = self._to_cam(E, N)
+        nv = len(E)
+        if o.reflections:  # one projection for every vertex and its mirror image in the sea
+            u, v, depth = cam.enu_to_pixel(np.concatenate([ce, ce]), np.concatenate([cn, cn]),
+                                           np.concatenate([Z, -Z]))
+        else:
+            u, v, depth = cam.enu_to_pixel(ce, cn, Z)
+        order = []
+        W, H = self.W, self.H
+        for k, p in enumerate(pts):
+            sl = slice(bounds[k], bounds[k + 1])
+            if depth[sl].min() <= 0.5:
+                continue  # partly behind the camera: not renderable as a pinhole silhouette
+            e, n = p[3][0], p[3][1]
+            cx, cy = self._to_cam(e, n)
+            order.append((math.hypot(cx, cy), k, cx, cy))
+        order.sort(reverse=True)  # far first
+        # ---- pass 1: wakes and reflections on the water (they never cover a vessel's pixels)
+        for dist, k, _, _ in order:
+            if o.wakes:
+                self._draw_wake(img, k, t_s, cam)
+            if o.reflections:
+                msl = slice(nv + bounds[k], nv + bounds[k + 1])
+                self._draw_reflection(img, k, u[msl], v[msl], depth[msl])
+        # ---- pass 2: vessels, far to near
+        drawn = []
+        for dist, k, cx, cy in order:
+            sl = slice(bounds[k], bounds[k + 1])
+            uu, vv = u[sl], v[sl]
+            if uu.max() < -1 or vv.max() < -1 or uu.min() > W or vv.min() > H:
+                continue
+            e, n, course, speed, fwd, port, roll, pitch, heave = pts[k][3]
+            # the camera in the vessel's frame (for back-face culling); far vessels sit lower (curvature)
+            cam_up = self.height_m + dist * dist / (2 * cam.r_eff_m) - heave
+            if self.world_to_camera is not None:
+                de, dn = np.linalg.solve(self.world_to_camera[:, :2], -np.array([cx, cy], float))
+            else:
+                de, dn = -cx, -cy
+            xl, yl, zl = de * fwd[0] + dn * fwd[1], de * port[0] + dn * port[1], cam_up
+            if roll or pitch:  # undo the vessel's attitude
+                cp, sp = math.cos(pitch), math.sin(pitch)
+                xl, zl = xl * cp + zl * sp, -xl * sp + zl * cp
+                cr, sr = math.cos(roll), math.sin(roll)
+                yl, zl = yl * cr + zl * sr, -yl * sr + zl * cr
+            sun = self._sun
+            sun_local = np.array([sun[0] * fwd[0] + sun[1] * fwd[1], sun[0] * port[0] + sun[1] * port[1], sun[2]])
+            res = self._draw_one(img, label, k, uu, vv, np.array([xl, yl, zl]), sun_local)
+            if res is not None:
+                drawn.append((k, res[0], res[1], dist))
+        return drawn
+
+    def _draw_one(self, img, label, k, uu, vv, cam_local, sun_local):
+        """Draw vessel ``k`` into a canvas of its own, composite it and label its pixels."""
+        W, H, C = self.W, self.H, self.C
+        vessel = self.world.vessels[k]
+        x0 = int(math.floor(uu.min())) - 1
+        y0 = int(math.floor(vv.min())) - 1
+        x1 = int(math.ceil(uu.max())) + 2
+        y1 = int(math.ceil(vv.max())) + 2
+        if x1 - x0 > 4 * W or y1 - y0 > 4 * H:  # cap the canvas of enormous (very near) vessels
+            x0, x1 = max(x0, -W), min(x1, 2 * W)
+            y0, y1 = max(y0, -H), min(y1, 2 * H)
+        cw, ch = x1 - x0, y1 - y0
+        if cw <= 0 or ch <= 0:
+            return None
+        canvas = np.zeros((ch, cw, C), np.uint8)
+        m = vessel.model
+        vis = np.einsum("ij,ij->i", m.all_normals, cam_local[None, :] - m.all_centres) > 0
+        if self.options.ir:
+            cols = m.all_ir[:, None]
+        else:
+            lam = np.clip(m.all_normals @ sun_local, 0, 1)
+            cols = m.all_bgr * (0.55 + 0.5 * lam[:, None])
+        cols = np.clip(np.round(cols), 1, 255)  # never 0: the canvas' zeros mark "no vessel"
+        n_parts = len(m.parts)
+        fsel = np.nonzero(vis)[0]
+        if n_parts > 1:  # hull first, then the other parts far to near
+            d = np.linalg.norm(m.part_centres - cam_local[None, :], axis=1)
+            d[0] = np.inf
+            rank = np.empty(n_parts, np.int64)
+            rank[np.argsort(-d, kind="stable")] = np.arange(n_parts)
+            fsel = fsel[np.argsort(rank[m.face_part[fsel]], kind="stable")]
+        idx = m.face_idx[fsel]
+        polys = np.empty(idx.shape + (2,))
+        polys[..., 0] = uu[idx] - x0
+        polys[..., 1] = vv[idx] - y0
+        fill_polys(canvas, polys, m.face_nvert[fsel], cols[fsel])
+        mask = canvas[..., 0] > 0
+        full_px = int(np.count_nonzero(mask))
+        if full_px == 0:
+            return None
+        ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+        if ix1 <= ix0 or iy1 <= iy0:
+            return None
+        cm = mask[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0]
+        if not cm.any():
+            return None
+        np.copyto(img[iy0:iy1, ix0:ix1], canvas[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0], where=cm[..., None])
+        label[iy0:iy1, ix0:ix1][cm] = k + 1
+        if self.options.ir and self.options.ir_halo > 0:
+            self._halo(img, label, cm, ix0, iy0, ix1, iy1, vessel)
+        bx, by, bw, bh = cv2.boundingRect(cm.view(np.uint8))
+        return full_px, (ix0 + bx, iy0 + by, ix0 + bx + bw, iy0 + by + bh)
+
+    def _halo(self, img, label, cm, ix0, iy0, ix1, iy1, vessel):
+        """A soft bright glow around a warm vessel (thermal sensors' halo), outside its pixels."""
+        sig = max(1.5, 0.25 * (iy1 - iy0))
+        pad = int(3 * sig) + 1
+        X0, Y0 = max(ix0 - pad, 0), max(iy0 - pad, 0)
+        X1, Y1 = min(ix1 + pad, self.W), min(iy1 + pad, self.H)
+        m = np.zeros((Y1 - Y0, X1 - X0), np.float32)
+        m[iy0 - Y0:iy1 - Y0, ix0 - X0:ix1 - X0] = cm
+        g = cv2.GaussianBlur(m, (0, 0), sig)
+        strength = self.options.ir_halo * max(0.0, vessel.ir_level - self.sky.ir_sea_far) * 0.8
+        roi = img[Y0:Y1, X0:X1, 0]
+        free = label[Y0:Y1, X0:X1] == 0
+        out = np.clip(roi + g * strength, 0, 255).astype(np.uint8)
+        np.copyto(roi, out, where=free)
+
+    def _draw_reflection(self, img, k, mu, mv, mdepth):
+        """Mirror image of the vessel in the water: darkened, fading with depth, rippled."""
+        W, H, C = self.W, self.H, self.C
+        x0, y0 = int(math.floor(mu.min())) - 1, int(math.floor(mv.min())) - 1
+        x1, y1 = int(math.ceil(mu.max())) + 2, int(math.ceil(mv.max())) + 2
+        ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+        if ix1 <= ix0 or iy1 <= iy0 or (x1 - x0) > 4 * W or (y1 - y0) > 4 * H or (y1 - y0) < 5:
+            return
+        m = self.world.vessels[k].model
+        canvas = np.zeros((y1 - y0, x1 - x0, C + 1), np.float32)
+        polys = np.empty(m.face_idx.shape + (2,))
+        polys[..., 0] = mu[m.face_idx] - x0
+        polys[..., 1] = mv[m.face_idx] - y0
+        fill_polys(canvas, polys, m.face_nvert, m.face_refl_ir if self.options.ir else m.face_refl_bgr)
+        rows = np.arange(y1 - y0, dtype=np.float32)
+        top = float(mv.min() - y0)
+        depth_px = max(1.0, float(mv.max() - mv.min()))
+        fade = np.clip(1.0 - (rows - top) / depth_px, 0, 1) ** 1.5
+        a0 = 0.25 if self.options.ir else 0.45
+        # ripple: shift rows sideways
+        amp = min(2.0, 0.05 * (x1 - x0))
+        shift = np.round(np.sin(rows * 0.9 + k) * amp).astype(np.int64)
+        cols = (np.arange(x1 - x0)[None, :] - shift[:, None]) % (x1 - x0)
+        canvas = canvas[np.arange(y1 - y0)[:, None], cols]
+        sub = canvas[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0]
+        a = sub[..., C:] * (a0 * fade[iy0 - y0:iy1 - y0, None, None])
+        roi = img[iy0:iy1, ix0:ix1]
+        roi[:] = (roi * (1 - a) + sub[..., :C] * a).astype(np.uint8)
+
+    def _draw_wake(self, img, k, t_s, cam: CameraModel):
+        """Foam of the turbulent wake, the Kelvin arms and the bow wave, on the sea surface."""
+        vessel = self.world.vessels[k]
+        tau = _WAKE_TAU
+        e, n, course, speed = vessel.state(t_s - tau)
+        sp = float(speed[0])
+        if sp < 0.3:
+            return
+        L, B = vessel.length_m, vessel.beam_m
+        c = np.radians(course)
+        fx, fy = np.sin(c), np.cos(c)
+        px, py = -fy, fx  # port
+        trav = sp * tau
+        # turbulent wake behind the stern
+        se, sn = e - 0.48 * L * fx, n - 0.48 * L * fy
+        wt = 0.45 * B * np.sqrt(1 + 0.08 * trav / max(B, 1.0))
+        le, ln_, re, rn = se + px * wt, sn + py * wt, se - px * wt, sn - py * wt
+        turb = np.stack([np.stack([le[:-1], ln_[:-1]], -1), np.stack([le[1:], ln_[1:]], -1),
+                         np.stack([re[1:], rn[1:]], -1), np.stack([re[:-1], rn[:-1]], -1)], axis=1)
+        fade = float(np.clip(sp / 7.0, 0.2, 0.75)) * np.exp(-tau / 6.0)
+        a_seg = 0.5 * (fade[:-1] + fade[1:])
+        polys, alphas = [turb], [a_seg]
+        # Kelvin arms, spreading from the bow at 19.5 degrees
+        be, bn = e + 0.45 * L * fx, n + 0.45 * L * fy
+        kel = np.tan(np.radians(19.47)) * (trav + 0.3 * L) + 0.3 * B
+        aw = 0.15 * B + 0.03 * trav
+        for side in (-1.0, 1.0):
+            ce_, cn_ = be + side * px * kel, bn + side * py * kel
+            ie, in_ = ce_ - side * px * aw, cn_ - side * py * aw
+            oe, on_ = ce_ + side * px * aw, cn_ + side * py * aw
+            polys.append(np.stack([np.stack([ie[:-1], in_[:-1]], -1), np.stack([ie[1:], in_[1:]], -1),
+                                   np.stack([oe[1:], on_[1:]], -1), np.stack([oe[:-1], on_[:-1]], -1)], axis=1))
+            alphas.append(0.6 * a_seg)
+        # bow wave
+        b0e, b0n = be[0] + 0.05 * L * fx[0], bn[0] + 0.05 * L * fy[0]
+        polys.append(np.array([[
+            (b0e, b0n),
+            (b0e - 0.25 * L * fx[0] + 0.55 * B * px[0], b0n - 0.25 * L * fy[0] + 0.55 * B * py[0]),
+            (b0e - 0.3 * L * fx[0], b0n - 0.3 * L * fy[0]),
+            (b0e - 0.25 * L * fx[0] - 0.55 * B * px[0], b0n - 0.25 * L * fy[0] - 0.55 * B * py[0]),
+        ]]))
+        alphas.append(np.array([min(0.9, 1.2 * fade[0])]))
+        Q = np.concatenate(polys).reshape(-1, 2)
+        al = np.concatenate(alphas)
+        ce, cn = self._to_cam(Q[:, 0], Q[:, 1])
+        uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
+        ok = (dd > 0.5).reshape(-1, 4).all(axis=1)
+        if not ok.any():
+            return
+        uu, vv = uu.reshape(-1, 4)[ok], vv.reshape(-1, 4)[ok]
+        al = al[ok]
+        W, H, C = self.W, self.H, self.C
+        x0 = int(max(0, math.floor(uu.min()) - 1))
+        y0 = int(max(0, math.floor(vv.min()) - 1))
+        x1 = int(min(W, math.ceil(uu.max()) + 2))
+        y1 = int(min(H, math.ceil(vv.max()) + 2))
+        if x1 <= x0 or y1 <= y0:
+            return
+        alpha3 = np.zeros((y1 - y0, x1 - x0, 1), np.float32)
+        polys = np.stack([uu - x0, vv - y0], axis=-1)
+        fill_polys(alpha3, polys, np.full(len(al), 4, np.int64), al[:, None].astype(np.float64))
+        alpha = alpha3[..., 0]
+        foam = self._foam
+        alpha *= foam[(np.arange(y0, y1) % foam.shape[0])[:, None],
+                      ((np.arange(x0, x1) + int(7 * t_s)) % foam.shape[1])[None, :]]
+        a = alpha[..., None]
+        roi = img[y0:y1, x0:x1]
+        roi[:] = (roi * (1 - a) + self._foam_col * a).astype(np.uint8)
+
+    # ---------------------------------------------------------------------- sensor
+    def _finish(self, img: np.ndarray, frame_seed: int) -> np.ndarray:
+        o = self.options
+        if o.blur_sigma_px > 0:
+            img = cv2.GaussianBlur(img, (0, 0), o.blur_sigma_px).reshape(img.shape)
+        if self._fpn is not None:
+            img = cv2.add(img, self._fpn[0]).reshape(img.shape)
+            img = cv2.subtract(img, self._fpn[1]).reshape(img.shape)
+        if self._noise_pos is not None:
+            rng = np.random.default_rng([self.seed, 5, frame_seed])
+            dx, dy = (int(x) for x in rng.integers(0, self._pad, 2))
+            img = cv2.add(img, self._noise_pos[dy:dy + self.H, dx:dx + self.W]).reshape(img.shape)
+            img = cv2.subtract(img, self._noise_neg[dy:dy + self.H, dx:dx + self.W]).reshape(img.shape)
+        if o.ir:
+            img = img[..., 0]
+            if o.ir_polarity == "black_hot":
+                img = 255 - img
+        if o.jpeg_quality > 0:
+            ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, int(o.jpeg_quality)])
+            img = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+        return np.ascontiguousarray(img)
+
+
+_WAKE_TAU = np.array([0.0, 1.0, 2.5, 4.5, 7.0, 10.0, 14.0])

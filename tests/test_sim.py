@@ -1,0 +1,298 @@
+"""Synthetic world: exact ground truth, occlusion, determinism, camera geometry, scenario timing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from seawatch.sim import (
+    SCENARIOS,
+    PTZSchedule,
+    Trajectory,
+    make_multicam,
+    make_scenario,
+)
+from seawatch.types import Frame, Modality
+
+
+@pytest.fixture(scope="module")
+def harbour():
+    return make_scenario("harbour", seed=0)
+
+
+@pytest.fixture(scope="module")
+def crossing():
+    return make_scenario("crossing", seed=0, fps=5.0)
+
+
+def test_scenario_names_and_timing():
+    assert {"harbour", "pan", "ir", "crossing", "open_sea"} <= set(SCENARIOS)
+    s = make_scenario("crossing", duration_s=3.0, fps=4.0)
+    assert s.n_frames == 12 and s.duration_s == 3.0 and s.fps == 4.0
+    assert s.time_s(0) == 0.0 and s.time_s(6) == pytest.approx(1.5)
+    f = s.render(6)
+    assert isinstance(f, Frame) and f.t_s == pytest.approx(1.5) and f.index == 6
+    assert f.image.shape == (576, 704, 3) and f.image.dtype == np.uint8
+    assert f.pose is not None and f.ptz is not None and f.ptz.t_s == pytest.approx(1.5)
+    with pytest.raises(IndexError):
+        s.render(12)
+    with pytest.raises(KeyError):
+        make_scenario("no_such_scene")
+    h = make_scenario("harbour")
+    assert h.duration_s == 45.0 and h.fps == 10.0 and h.n_frames == 450
+
+
+def test_trajectory_closed_form_matches_integration():
+    tr = Trajectory(100.0, -50.0, 30.0, ((5.0, 4.0, 0.0), (10.0, 4.0, 6.0), (1e9, 3.0, -2.0)))
+    dt = 0.001
+    t = np.arange(0, 25.0, dt)
+    e, n, c, v = tr.state(t)
+    # integrate the velocity numerically and compare
+    ve, vn = v * np.sin(np.radians(c)), v * np.cos(np.radians(c))
+    e_int = 100.0 + np.concatenate([[0], np.cumsum(0.5 * (ve[1:] + ve[:-1]) * dt)])
+    n_int = -50.0 + np.concatenate([[0], np.cumsum(0.5 * (vn[1:] + vn[:-1]) * dt)])
+    assert np.max(np.abs(e - e_int)) < 0.01 and np.max(np.abs(n - n_int)) < 0.01
+    assert c[int(4.0 / dt)] == pytest.approx(30.0)
+    assert c[int(15.0 / dt)] == pytest.approx(90.0, abs=0.01)  # 10 s at 6 deg/s
+
+
+def test_harbour_content(harbour):
+    assert len(harbour.vessels) >= 4
+    assert sum(v.mmsi == 0 for v in harbour.vessels) >= 1  # one without AIS
+    assert harbour.renderer.pano is not None and harbour.modality == Modality.EO
+    gt = harbour.ground_truth(0)
+    assert len(gt) >= 4
+    assert set(gt.mmsi[gt.mmsi > 0]) <= {v.mmsi for v in harbour.vessels}
+    # a coastline: in some columns the water starts well below the sea horizon
+    cam = harbour.camera_at(0)
+    hz = cam.horizon_row(np.arange(harbour.width, dtype=float))
+    assert np.max(gt.water_row - hz) > 3
+
+
+@pytest.mark.parametrize("i", [0, 170, 449])
+def test_boxes_match_label_masks(harbour, i):
+    gt = harbour.ground_truth(i)
+    lab = harbour.label_image(i)
+    for vid, box, vis, vpx in zip(gt.ids, gt.boxes, gt.visible, gt.visible_px):
+        ys, xs = np.nonzero(lab == vid)
+        assert len(xs) == vpx
+        if vpx == 0:
+            assert vis == 0
+            continue
+        assert tuple(box) == (xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1)
+        x, y, w, h = box
+        assert 0 <= x and 0 <= y and x + w <= harbour.width and y + h <= harbour.height
+    # every labelled pixel belongs to a listed vessel
+    assert set(np.unique(lab)) - {0} <= set(gt.ids.tolist())
+
+
+def test_boxes_match_rendered_pixels(harbour):
+    """Without noise, wakes and reflections, the vessels change exactly the pixels of their masks."""
+    clean = harbour.with_render_options(noise_sigma=0.0, wakes=False, reflections=False)
+    for i in (30, 250):
+        img = clean.render(i).image.astype(int)
+        empty = clean.render_empty(i).astype(int)
+        diff = np.any(img != empty, axis=-1)
+        lab = clean.label_image(i)
+        gt = clean.ground_truth(i)
+        assert not np.any(diff & (lab == 0))  # nothing drawn outside the masks
+        for vid, box in zip(gt.ids, gt.boxes):
+            m = lab == vid
+            if not m.any():
+                continue
+            assert diff[m].mean() > 0.9  # the mask is what the vessel painted
+            x, y, w, h = box.astype(int)
+            dm = diff & m
+            ys, xs = np.nonzero(dm)
+            assert xs.min() >= x and xs.max() < x + w and ys.min() >= y and ys.max() < y + h
+
+
+def test_partial_occlusion_in_harbour(harbour):
+    vis = [dict(zip(g.ids.tolist(), g.visible.tolist())) for g in
+           (harbour.ground_truth(i) for i in range(120, 230, 10))]
+    sail = [d.get(2, 1.0) for d in vis]
+    assert min(sail) < 0.8 and max(sail) > 0.99
+    assert all(0.0 < v for v in sail)  # partly, never fully hidden
+
+
+def test_crossing_full_occlusion(crossing):
+    s = crossing
+    far = {}
+    near = {}
+    for i in range(s.n_frames):
+        g = s.ground_truth(i)
+        d = dict(zip(g.ids.tolist(), g.visible.tolist()))
+        far[i], near[i] = d.get(2), d.get(1)
+    t_cross = int(round(12.0 * s.fps))
+    assert far[t_cross] == 0.0  # fully hidden, still listed
+    assert far[0] == pytest.approx(1.0) and far[s.n_frames - 1] == pytest.approx(1.0)
+    assert all(v is not None and v > 0.999 for v in near.values())  # the near boat is never occluded
+    hidden = [i for i, v in far.items() if v == 0.0]
+    assert 2 <= len(hidden) and max(hidden) - min(hidden) + 1 == len(hidden)  # one contiguous spell
+    # while hidden, no pixel of the far boat is labelled
+    assert not np.any(s.label_image(t_cross) == 2)
+    g = s.ground_truth(t_cross)
+    k = list(g.ids).index(2)
+    assert g.full_px[k] > 20 and g.visible_px[k] == 0
+
+
+def test_determinism_same_seed_same_frames():
+    a = make_scenario("crossing", seed=3, duration_s=4.0, fps=5.0)
+    b = make_scenario("crossing", seed=3, duration_s=4.0, fps=5.0)
+    c = make_scenario("crossing", seed=4, duration_s=4.0, fps=5.0)
+    fa = [a.render(i).image for i in (0, 7, 15)]
+    fb = [b.render(i).image for i in (15, 7, 0)][::-1]  # any order
+    for x, y in zip(fa, fb):
+        assert np.array_equal(x, y)
+    assert not np.array_equal(fa[1], c.render(7).image)
+    ga, gb = a.ground_truth(7), b.ground_truth(7)
+    assert np.array_equal(ga.boxes, gb.boxes) and np.array_equal(ga.visible, gb.visible)
+
+
+def test_horizon_matches_camera_model():
+    s = make_scenario("open_sea", duration_s=3.0, fps=5.0)  # no coast, rolled and shaking camera
+    for i in (0, 9):
+        g = s.ground_truth(i)
+        cam = s.camera_at(i)
+        u = np.arange(s.width, dtype=float)
+        hz = cam.horizon_row(u)
+        # first pixel row whose centre lies below the horizon
+        expected = np.ceil(hz - 1e-9)
+        assert np.max(np.abs(g.water_row - expected)) <= 1.0
+        assert abs(cam.pose.roll_deg) > 0.1  # the horizon really is tilted
+    img = s.render_empty(0).astype(float)
+    c = s.width // 2
+    r = int(np.ceil(s.camera_at(0).horizon_row(float(c))))
+    # the sky just above the horizon is brighter than the sea just below (EO)
+    assert img[r - 4:r - 1, c - 20:c + 20].mean() > img[r + 2:r + 5, c - 20:c + 20].mean() + 10
+
+
+def test_world_positions_project_into_boxes(harbour):
+    """Ground-truth lat/lon projected by the camera model lands on the vessel's box (bottom centre)."""
+    for i in (0, 300):
+        g = harbour.ground_truth(i)
+        cam = harbour.camera_at(i)
+        u, v, d = cam.geodetic_to_pixel(g.lat_deg, g.lon_deg, 0.0)
+        for k in range(len(g)):
+            if g.visible[k] < 0.999:
+                continue
+            x, y, w, h = g.full_boxes[k]
+            if x <= 0 or y <= 0 or x + w >= harbour.width or y + h >= harbour.height:
+                continue
+            assert x - 1 <= u[k] <= x + w + 1
+            assert y <= v[k] <= y + h + 2  # the waterline is near the bottom of the box
+            # azimuth/elevation of the truth matches the camera's pixel->azel
+            az, el = cam.pixel_to_azel(u[k], v[k])
+            assert abs((az - g.azel_deg[k, 0] + 180) % 360 - 180) < 0.02
+            assert abs(el - g.azel_deg[k, 1]) < 0.02
+
+
+def test_pan_scenario_moves_and_zooms():
+    s = make_scenario("pan", duration_s=30.0, fps=2.0)
+    pans = [s.ptz_at(i).pan_deg for i in range(s.n_frames)]
+    zooms = [s.ptz_at(i).zoom for i in range(s.n_frames)]
+    assert max(pans) - min(pans) > 40 and max(zooms) >= 3.0 and min(zooms) == 1.0
+    i_zoom = int(np.argmax(zooms))
+    g = s.ground_truth(i_zoom)
+    lab = s.label_image(i_zoom)
+    assert len(g) >= 1
+    for vid, box, vpx in zip(g.ids, g.boxes, g.visible_px):
+        ys, xs = np.nonzero(lab == vid)
+        assert len(xs) == vpx
+        if vpx:
+            assert tuple(box) == (xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1)
+    # the shake makes the true pose differ slightly from the commanded one
+    assert g.pose.pan_deg != pytest.approx(g.ptz.pan_deg, abs=1e-6)
+    assert abs((g.pose.pan_deg - g.ptz.pan_deg + 180) % 360 - 180) < 0.2
+    f0, f1 = s.render(0).image, s.render(20).image
+    assert f0.shape == f1.shape == (576, 704, 3)
+
+
+def test_ir_frames_are_thermal():
+    s = make_scenario("ir", duration_s=2.0, fps=5.0)
+    f = s.render(3)
+    assert f.modality == Modality.IR and f.image.ndim == 2 and f.image.dtype == np.uint8
+    g = s.ground_truth(3)
+    lab = s.label_image(3)
+    assert len(g) >= 3
+    # vessels are warmer than the sea around them (white-hot)
+    img = f.image.astype(float)
+    sea = img[(lab == 0)][int(0.6 * (lab == 0).sum()):].mean()  # lower part of the frame: sea
+    hot = np.mean([img[lab == vid].mean() for vid in g.ids if (lab == vid).sum() > 20])
+    assert hot > sea + 15
+    bh = s.with_render_options(ir_polarity="black_hot").render(3).image.astype(float)
+    assert bh[lab > 0].mean() < bh[lab == 0].mean()
+
+
+def test_large_frames_render():
+    s = make_scenario("harbour", width=1920, height=1080, duration_s=1.0, fps=2.0)
+    f = s.render(1)
+    g = s.ground_truth(1)
+    assert f.image.shape == (1080, 1920, 3) and len(g) >= 4
+    small = make_scenario("harbour", duration_s=1.0, fps=2.0).ground_truth(1)
+    # the same vessels, boxes scaled by ~1920/704 horizontally
+    common = sorted(set(g.ids) & set(small.ids))
+    for vid in common:
+        a, b = g.boxes[list(g.ids).index(vid)], small.boxes[list(small.ids).index(vid)]
+        if b[2] > 15:
+            assert a[2] / b[2] == pytest.approx(1920 / 704, rel=0.15)
+
+
+def test_ptz_schedule_eases_between_keyframes():
+    sch = PTZSchedule((0.0, 10.0), (350.0, 10.0), (-1.0, -2.0), (1.0, 4.0))
+    assert sch.at(-1).pan_deg == 350.0 and sch.at(20).zoom == 4.0
+    mid = sch.at(5.0)
+    assert mid.pan_deg == pytest.approx(0.0, abs=1e-9) or mid.pan_deg == pytest.approx(360.0)
+    assert mid.zoom == pytest.approx(2.0) and mid.tilt_deg == pytest.approx(-1.5)
+    with pytest.raises(ValueError):
+        PTZSchedule((0.0, 1.0), (0.0,), (0.0, 0.0), (1.0, 1.0))
+
+
+def test_multicam_views_share_one_world():
+    mc = make_multicam(seed=0, duration_s=2.0, fps=2.0)
+    assert len(mc.views) == 3 and len({v.camera_id for v in mc.views}) == 3
+    gts = mc.ground_truth(1)
+    wt = mc.world_truth(1)
+    seen = {}
+    for g in gts:
+        for k, vid in enumerate(g.ids):
+            if g.visible[k] > 0.5:
+                seen.setdefault(int(vid), []).append((g.lat_deg[k], g.lon_deg[k]))
+    assert sum(len(x) >= 2 for x in seen.values()) >= 2  # vessels seen by two cameras or more
+    for vid, pos in seen.items():
+        j = list(wt["ids"]).index(vid)
+        for lat, lon in pos:  # every camera reports the same world position
+            assert lat == pytest.approx(wt["lat_deg"][j], abs=1e-9) and lon == pytest.approx(wt["lon_deg"][j], abs=1e-9)
+    # the truth projects into the box in every camera
+    for view, g in zip(mc.views, gts):
+        cam = view.camera_at(1)
+        u, v, _ = cam.geodetic_to_pixel(g.lat_deg, g.lon_deg, 0.0)
+        for k in range(len(g)):
+            x, y, w, h = g.full_boxes[k]
+            if g.visible[k] > 0.999 and 0 < x and x + w < view.width and w > 4:
+                assert x - 1.5 <= u[k] <= x + w + 1.5
+    assert mc.ais_reports() == mc.views[1].ais_reports()
+
+
+def test_write_outputs(tmp_path):
+    s = make_scenario("crossing", duration_s=1.0, fps=5.0)
+    paths = s.write(tmp_path / "out")
+    for key in ("video", "gt", "gt_jsonl", "ais", "camera", "ptz", "meta"):
+        assert paths[key].is_file() and paths[key].stat().st_size > 0
+    rows = paths["gt"].read_text().strip().splitlines()
+    frames = {int(r.split(",")[0]) for r in rows}
+    assert frames <= set(range(1, 6)) and len(rows) == sum(len(s.ground_truth(i)) for i in range(5))
+    assert paths["ptz"].read_text().count("\n") == 6
+    import cv2
+
+    cap = cv2.VideoCapture(str(paths["video"]))
+    n = 0
+    while cap.read()[0]:
+        n += 1
+    assert n == 5
+    from seawatch.camera import load_camera
+
+    cam = load_camera(paths["camera"])
+    assert cam.intrinsics.width == 704 and math.isclose(cam.pose.height_m, s.camera.pose.height_m)
