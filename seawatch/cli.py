@@ -189,6 +189,8 @@ def _demo_evaluation(gt: dict, out_dir: Path, fused: bool) -> dict:  # owner: pi
 def _cmd_demo(args) -> int:  # owner: pipeline
     import time
 
+    import numpy as np
+
     from seawatch.config import apply_overrides
     from seawatch.io.results import write_summary
     from seawatch.io.video import IterableSource, SourceError
@@ -228,9 +230,10 @@ def _cmd_demo(args) -> int:  # owner: pipeline
         for i in range(n):
             frame = scn.render(i)
             g = scn.ground_truth(i)
-            gt[i] = (g.ids, g.boxes, g.mmsi)
+            seen = np.asarray(g.visible) > 0  # fully hidden vessels are listed with visible 0
+            gt[i] = (g.ids[seen], g.boxes[seen].reshape(-1, 4), g.mmsi[seen])
             gt_lines.extend(f"{i + 1},{int(k)},{b[0]:.2f},{b[1]:.2f},{b[2]:.2f},{b[3]:.2f},1,-1,-1,-1\n"
-                            for k, b in zip(g.ids, g.boxes))
+                            for k, b in zip(gt[i][0], gt[i][1]))
             yield frame
 
     src = IterableSource(frames(), scn.fps, name=f"sim:{args.scenario} seed {args.seed}",

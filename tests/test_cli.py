@@ -168,3 +168,69 @@ def test_ais_without_camera_explains_why_fusion_cannot_run(tmp_path, video, caps
     assert rc == EXIT_FAIL
     err = _err(capsys)
     assert "AIS fusion" in err and "camera" in err
+
+
+def _have_sim():
+    try:
+        from seawatch.sim import SCENARIOS, make_scenario  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_sim = pytest.mark.skipif(not _have_sim(), reason="simulator not available")
+
+
+@needs_sim
+def test_demo_writes_outputs_and_scores_against_ground_truth(tmp_path, capsys):
+    out = tmp_path / "demo"
+    rc = main(["demo", "--out", str(out), "--frames", "20", "--quiet"])
+    assert rc == EXIT_OK
+    text = capsys.readouterr().out
+    assert "harbour" in text and "20 frames" in text
+    for name in ("annotated.mp4", "tracks.csv", "detections.csv", "tracks.jsonl", "detections.jsonl",
+                 "summary.json", "scene/gt.txt", "scene/ais.nmea", "scene/camera.toml"):
+        assert (out / name).is_file(), name
+    s = json.loads((out / "summary.json").read_text())
+    assert s["frames_processed"] == 20 and s["scene"]["name"] == "harbour"
+    if s["evaluation"]:  # seawatch.eval present
+        assert "vs ground truth: HOTA" in text
+        assert 0.0 <= s["evaluation"]["tracks"]["HOTA"] <= 1.0
+    gt = np.loadtxt(out / "scene" / "gt.txt", delimiter=",", ndmin=2)
+    assert gt[:, 0].min() == 1 and gt[:, 0].max() == 20 and len(np.unique(gt[:, 1])) >= 4
+
+
+@needs_sim
+def test_demo_rejects_unknown_scenario(tmp_path, capsys):
+    assert main(["demo", "--scenario", "atlantis", "--out", str(tmp_path / "d")]) == EXIT_FAIL
+    assert "atlantis" in _err(capsys)
+
+
+@needs_sim
+def test_sim_writes_a_scenario_and_lists_them(tmp_path, capsys):
+    assert main(["sim", "--list"]) == EXIT_OK
+    assert "harbour" in capsys.readouterr().out
+    out = tmp_path / "crossing"
+    rc = main(["sim", "crossing", "--out", str(out), "--duration", "1", "--width", "320", "--height", "240"])
+    assert rc == EXIT_OK
+    for name in ("video.mp4", "gt.txt", "ais.nmea", "camera.toml", "ptz.csv"):
+        assert (out / name).is_file(), name
+    assert main(["sim", "atlantis", "--out", str(tmp_path / "x")]) == EXIT_FAIL
+    assert "unknown scenario 'atlantis'" in _err(capsys)
+    assert main(["sim", "crossing", "--width", "320"]) == EXIT_FAIL
+    assert "--height" in _err(capsys)
+
+
+@needs_sim
+def test_run_on_a_simulated_scenario_with_camera_ptz_and_ais(tmp_path, capsys):
+    scene = tmp_path / "pan"
+    assert main(["sim", "pan", "--out", str(scene), "--duration", "3", "--width", "352", "--height", "288"]) == 0
+    capsys.readouterr()
+    out = tmp_path / "out"
+    rc = main(["run", str(scene / "video.mp4"), "--camera", str(scene / "camera.toml"), "--ptz",
+               str(scene / "ptz.csv"), "--ais", str(scene / "ais.nmea"), "--out", str(out), "--quiet"])
+    assert rc == EXIT_OK
+    s = json.loads((out / "summary.json").read_text())
+    assert s["frames_processed"] == s["frames_read"] > 0
+    assert s["ptz_states"] > 0 and s["ais"]["reports"] > 0
+    assert s["rejected_inputs"]["ptz_rows"] == 0
