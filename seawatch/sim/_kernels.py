@@ -7,29 +7,30 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_waves(out, r0, tx, ty, amp, glint, tile, ox, oy, gain, glint_col):
+def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, water_top_y):
     """Add the animated wave shading and sun glints to the water pixels of ``out`` (in place).
 
     Parameters
     ----------
     out : (H, W, C) uint8
-        Background image; rows ``r0 .. r0 + tx.shape[0]`` are processed.
-    tx, ty : (Hs, W) float32
-        Wave-texture coordinates (texels) of those rows.
-    amp, glint : (Hs, W) float32
-        Wave contrast and glint strength; both 0 where there is no water (pixel skipped).
+        Background image; rows ``r0 .. r0 + maps.shape[0]`` are processed.
+    maps : (Hs, W, 4) float32
+        Per pixel of those rows: wave-texture coordinates x, y (texels), wave contrast and glint
+        strength (both 0: no waves).
     tile : (T, T, 2) uint8
         Wave texture (shade, glint); T a power of two.
-    ox, oy : float
-        Texture drift (texels).
     gain, glint_col : (C,) float32
         Per-channel gain of the shading and colour of the glints.
+    hi_map : (H, W, 2) float32
+        Each pixel's coordinates in the sharp horizon panorama; a pixel is water when its row there
+        is below ``water_top_y[int(x)]`` (the sea horizon or the coast's water line).
+    water_top_y : (Wp,) float32
     """
-    hs, w = tx.shape
+    hs = maps.shape[0]
+    w = maps.shape[1]
     c = out.shape[2]
     m = tile.shape[0] - 1
-    oxf = np.float32(ox)
-    oyf = np.float32(oy)
+    nwt = water_top_y.shape[0]
     one = np.float32(1.0)
     half = np.float32(0.5)
     c128 = np.float32(128.0)
@@ -37,12 +38,19 @@ def sea_waves(out, r0, tx, ty, amp, glint, tile, ox, oy, gain, glint_col):
     for yy in range(hs):
         y = r0 + yy
         for x in range(w):
-            a = amp[yy, x]
-            g = glint[yy, x]
+            a = maps[yy, x, 2]
+            g = maps[yy, x, 3]
             if a <= 0.0 and g <= 0.0:
                 continue
-            fx = tx[yy, x] + oxf
-            fy = ty[yy, x] + oyf
+            xi = int(hi_map[y, x, 0])
+            if xi < 0:
+                xi = 0
+            elif xi >= nwt:
+                xi = nwt - 1
+            if hi_map[y, x, 1] <= water_top_y[xi]:
+                continue
+            fx = maps[yy, x, 0]
+            fy = maps[yy, x, 1]
             ix = int(np.floor(fx))
             iy = int(np.floor(fy))
             wx = fx - np.float32(ix)
@@ -139,3 +147,70 @@ def fill_polys(canvas, polys, nvert, colours):
             for c in range(c0, c1 + 1):
                 for k in range(nc):
                     canvas[r, c, k] = colours[f, k]
+
+
+@numba.njit(cache=True, nogil=True)
+def first_water_rows(hi_map, water_top_y):
+    """For each column, the first row whose pixel is water (``H`` when none); see :func:`sea_waves`."""
+    h = hi_map.shape[0]
+    w = hi_map.shape[1]
+    nwt = water_top_y.shape[0]
+    out = np.full(w, h, np.int64)
+    for x in range(w):
+        for y in range(h):
+            xi = int(hi_map[y, x, 0])
+            if xi < 0:
+                xi = 0
+            elif xi >= nwt:
+                xi = nwt - 1
+            if hi_map[y, x, 1] > water_top_y[xi]:
+                out[x] = y
+                break
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def blend_foam(img, y0, x0, alpha, colour, foam, fox):
+    """Blend ``colour`` into ``img[y0:, x0:]`` with ``alpha`` (h, w) modulated by a foam texture."""
+    h, w = alpha.shape
+    nc = img.shape[2]
+    fh, fw = foam.shape
+    for r in range(h):
+        for c in range(w):
+            a = alpha[r, c]
+            if a <= 0.0:
+                continue
+            a = a * foam[(y0 + r) % fh, (x0 + c + fox) % fw]
+            for k in range(nc):
+                v = img[y0 + r, x0 + c, k] * (1.0 - a) + colour[k] * a + 0.5
+                img[y0 + r, x0 + c, k] = np.uint8(min(255.0, max(0.0, v)))
+
+
+@numba.njit(cache=True, nogil=True)
+def blend_reflection(img, y0, x0, h, w, canvas, cy0, cx0, a0, top, depth_px, amp, phase):
+    """Blend a reflection canvas (ch, cw, C + 1; last channel alpha) into ``img[y0:y0+h, x0:x0+w]``.
+
+    Canvas row ``cy0 + r`` lands on image row ``y0 + r``; alpha fades with the distance below the
+    water line (``top``, canvas rows) over ``depth_px``; rows are shifted sideways by a ripple.
+    """
+    nc = img.shape[2]
+    cw = canvas.shape[1]
+    for r in range(h):
+        rr = cy0 + r
+        f = 1.0 - (rr - top) / depth_px
+        if f <= 0.0:
+            continue
+        if f > 1.0:
+            f = 1.0
+        f = f * np.sqrt(f)
+        shift = int(np.round(np.sin(rr * 0.9 + phase) * amp))
+        for c in range(w):
+            cc = cx0 + c - shift
+            if cc < 0 or cc >= cw:
+                continue
+            a = canvas[rr, cc, nc] * a0 * f
+            if a <= 0.0:
+                continue
+            for k in range(nc):
+                v = img[y0 + r, x0 + c, k] * (1.0 - a) + canvas[rr, cc, k] * a + 0.5
+                img[y0 + r, x0 + c, k] = np.uint8(min(255.0, max(0.0, v)))

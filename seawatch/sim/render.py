@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from seawatch.camera import CameraModel
-from seawatch.sim._kernels import fill_polys, sea_waves
+from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, first_water_rows, sea_waves
 from seawatch.sim.texture import (
     CoastSpec,
     Panorama,
@@ -117,7 +117,7 @@ def _bgr_tuple(c, n: int):
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "tx", "ty", "amp", "glint", "hix", "hiy", "water_row", "f_px", "sea_cache")
+    __slots__ = ("bg", "sea_r0", "sea_maps", "hi_map", "water_row", "f_px", "sea_cache")
 
 
 class Renderer:
@@ -201,10 +201,10 @@ class Renderer:
         self._cache_bytes = 0
         # noise pools (static; a random offset per frame)
         rng = np.random.default_rng(self.seed + 3)
-        pad = 64
+        pad = 256
         self._pad = pad
         if options.noise_sigma > 0:
-            n = rng.normal(0.0, options.noise_sigma, (self.H + pad, self.W + pad, self.C))
+            n = rng.normal(0.0, options.noise_sigma, (self.H + pad, self.W, self.C))
             self._noise_pos = np.clip(n, 0, 255).astype(np.uint8)
             self._noise_neg = np.clip(-n, 0, 255).astype(np.uint8)
         else:
@@ -280,59 +280,52 @@ class Renderer:
             amp = amp * 0
             gl = gl * 0
 
-        def up(*chans):
+        def up(step, size, chans, r0=0):
+            """Bilinear upsampling of coarse-grid channels to rows ``r0:size[0]`` of an image whose
+            grid step is ``step`` (the coarse grid has one padding sample around the image)."""
             a = np.stack(chans, axis=-1).astype(np.float32)
-            big = cv2.resize(a, (gw * s, gh * s), interpolation=cv2.INTER_LINEAR)
-            return big[s:s + H, s:s + W]
+            k0 = max(0, r0 // step - 1)
+            sub = a[k0:]
+            big = cv2.resize(sub, (gw * step, sub.shape[0] * step), interpolation=cv2.INTER_LINEAR)
+            o = step - k0 * step
+            return big[r0 + o:size[0] + o, step:step + size[1]]
 
-        m1 = up(lox, loy, hix, hiy)
-        m2 = up(tx, ty, amp, gl)
-        lox_f, loy_f = m1[..., 0], m1[..., 1]
-        hix_f, hiy_f = np.ascontiguousarray(m1[..., 2]), np.ascontiguousarray(m1[..., 3])
-        bg = cv2.remap(pano.lo, lox_f, loy_f, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        if bg.ndim == 2:
-            bg = bg[..., None]
-        # the sharp band: rows that contain any pixel inside it
-        hmax = cv2.reduce(hiy_f, 1, cv2.REDUCE_MAX).ravel()
-        hmin = cv2.reduce(hiy_f, 1, cv2.REDUCE_MIN).ravel()
-        rows = np.nonzero((hmax >= -1) & (hmin <= pano.hi.shape[0]))[0]
-        if len(rows):
-            b0, b1 = int(rows[0]), int(rows[-1]) + 1
-            dst = np.ascontiguousarray(bg[b0:b1])
-            band = cv2.remap(pano.hi, hix_f[b0:b1], hiy_f[b0:b1], cv2.INTER_LINEAR, dst=dst.squeeze(-1) if self.C == 1 else dst,
-                             borderMode=cv2.BORDER_TRANSPARENT)
-            bg[b0:b1] = band.reshape(dst.shape)
-        # water rows: any pixel below the highest water top
-        wmin = float(self._water_top_y.min())
-        srows = np.nonzero(hmax > wmin)[0]
         view = _View()
-        view.bg = np.ascontiguousarray(bg)
-        view.hix, view.hiy = hix_f, hiy_f
         view.f_px = f_px
         view.sea_cache = None
+        # coarse sky / sea / clouds: smooth, so resampled at half resolution and upscaled
+        hh, hw = -(-H // 2), -(-W // 2)
+        mlo = np.ascontiguousarray(up(s // 2, (hh, hw), (lox, loy)))
+        bg = cv2.remap(pano.lo, mlo, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        bg = cv2.resize(bg, (2 * hw, 2 * hh), interpolation=cv2.INTER_LINEAR)[:H, :W]
+        bg = np.ascontiguousarray(bg).reshape(H, W, self.C)
+        # the sharp band around the horizon and the coast, at full resolution
+        hi_map = up(s, (H, W), (hix, hiy))
+        hmax = hiy.max(axis=1)
+        hmin = hiy.min(axis=1)
+        # pairs of consecutive coarse rows (k, k+1) whose span touches the band
+        pair_hi = np.maximum(hmax[:-1], hmax[1:])
+        pair_lo = np.minimum(hmin[:-1], hmin[1:])
+        rows_c = np.nonzero((pair_hi >= -1) & (pair_lo <= pano.hi.shape[0] + 1))[0]
+        if len(rows_c):
+            b0 = max(0, (int(rows_c[0]) - 1) * s)
+            b1 = min(H, (int(rows_c[-1]) + 1) * s)
+            dst = np.ascontiguousarray(bg[b0:b1])
+            band = cv2.remap(pano.hi, np.ascontiguousarray(hi_map[b0:b1]), None, cv2.INTER_LINEAR,
+                             dst=dst[..., 0] if self.C == 1 else dst, borderMode=cv2.BORDER_TRANSPARENT)
+            bg[b0:b1] = band.reshape(dst.shape)
+        view.bg = bg
+        view.hi_map = hi_map
+        # water rows: those below the highest water top (coarse rows, conservatively)
+        srows = np.nonzero(hmax > float(self._water_top_y.min()))[0]
         if len(srows):
-            r0_, r1_ = int(srows[0]), int(srows[-1]) + 1
+            r0_ = max(0, (int(srows[0]) - 2) * s)
             view.sea_r0 = r0_
-            view.tx = np.ascontiguousarray(m2[r0_:r1_, :, 0])
-            view.ty = np.ascontiguousarray(m2[r0_:r1_, :, 1])
-            # no waves off the water (above the horizon, on the coast)
-            xi = np.clip(hix_f[r0_:r1_].astype(np.int64), 0, len(self._water_top_y) - 1)
-            dry = hiy_f[r0_:r1_] <= self._water_top_y[xi]
-            amp_ = m2[r0_:r1_, :, 2].copy()
-            gl_ = m2[r0_:r1_, :, 3].copy()
-            amp_[dry] = 0
-            gl_[dry] = 0
-            view.amp = np.ascontiguousarray(amp_)
-            view.glint = np.ascontiguousarray(gl_)
+            view.sea_maps = up(s, (H, W), (tx, ty, amp, gl), r0_)
         else:
             view.sea_r0 = 0
-            view.tx = view.ty = view.amp = view.glint = np.zeros((0, W), np.float32)
-        # top row of the water in each column (sea horizon or coast water line)
-        xi = np.clip(hix_f.astype(np.int64), 0, len(self._water_top_y) - 1)
-        wt = self._water_top_y[xi]
-        water = hiy_f > wt
-        anyw = water.any(axis=0)
-        view.water_row = np.where(anyw, water.argmax(axis=0), H).astype(np.float64)
+            view.sea_maps = np.zeros((0, W, 4), np.float32)
+        view.water_row = first_water_rows(hi_map, self._water_top_y).astype(np.float64)
         return view
 
     # --------------------------------------------------------------------- vessels
@@ -371,7 +364,7 @@ class Renderer:
     def _sea_image(self, view: _View, t_s: float) -> np.ndarray:
         """Background plus animated waves (a fresh array), cached per wave frame for steady views."""
         o = self.options
-        if not (o.waves and view.tx.shape[0]):
+        if not (o.waves and view.sea_maps.shape[0]):
             return view.bg.copy()
         fi = self.waves.frame_index(t_s)
         cache = view.sea_cache
@@ -380,8 +373,8 @@ class Renderer:
             if hit is not None:
                 return hit.copy()
         img = view.bg.copy()
-        sea_waves(img, view.sea_r0, view.tx, view.ty, view.amp, view.glint, self.waves.frame(t_s), 0.0, 0.0,
-                  self._gain, self._glint_col)
+        sea_waves(img, view.sea_r0, view.sea_maps, self.waves.frame(t_s), self._gain, self._glint_col,
+                  view.hi_map, self._water_top_y)
         if cache is not None and self._cache_bytes + img.nbytes <= self.sea_cache_mb * 1e6:
             cache[fi] = img.copy()
             self._cache_bytes += img.nbytes
@@ -574,20 +567,12 @@ class Renderer:
         polys[..., 0] = mu[m.face_idx] - x0
         polys[..., 1] = mv[m.face_idx] - y0
         fill_polys(canvas, polys, m.face_nvert, m.face_refl_ir if self.options.ir else m.face_refl_bgr)
-        rows = np.arange(y1 - y0, dtype=np.float32)
         top = float(mv.min() - y0)
         depth_px = max(1.0, float(mv.max() - mv.min()))
-        fade = np.clip(1.0 - (rows - top) / depth_px, 0, 1) ** 1.5
         a0 = 0.25 if self.options.ir else 0.45
-        # ripple: shift rows sideways
         amp = min(2.0, 0.05 * (x1 - x0))
-        shift = np.round(np.sin(rows * 0.9 + k) * amp).astype(np.int64)
-        cols = (np.arange(x1 - x0)[None, :] - shift[:, None]) % (x1 - x0)
-        canvas = canvas[np.arange(y1 - y0)[:, None], cols]
-        sub = canvas[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0]
-        a = sub[..., C:] * (a0 * fade[iy0 - y0:iy1 - y0, None, None])
-        roi = img[iy0:iy1, ix0:ix1]
-        roi[:] = (roi * (1 - a) + sub[..., :C] * a).astype(np.uint8)
+        blend_reflection(img, iy0, ix0, iy1 - iy0, ix1 - ix0, canvas, iy0 - y0, ix0 - x0, a0, top, depth_px, amp,
+                         float(k))
 
     def _draw_wake(self, img, k, t_s, cam: CameraModel):
         """Foam of the turbulent wake, the Kelvin arms and the bow wave, on the sea surface."""
@@ -602,37 +587,39 @@ class Renderer:
         fx, fy = np.sin(c), np.cos(c)
         px, py = -fy, fx  # port
         trav = sp * tau
+        nq = len(tau) - 1
+        Q = np.empty((3 * nq + 1, 4, 2))
+        al = np.empty(3 * nq + 1)
+
+        def strip(q0, le, ln_, re, rn):
+            Q[q0:q0 + nq, 0, 0], Q[q0:q0 + nq, 0, 1] = le[:-1], ln_[:-1]
+            Q[q0:q0 + nq, 1, 0], Q[q0:q0 + nq, 1, 1] = le[1:], ln_[1:]
+            Q[q0:q0 + nq, 2, 0], Q[q0:q0 + nq, 2, 1] = re[1:], rn[1:]
+            Q[q0:q0 + nq, 3, 0], Q[q0:q0 + nq, 3, 1] = re[:-1], rn[:-1]
+
         # turbulent wake behind the stern
         se, sn = e - 0.48 * L * fx, n - 0.48 * L * fy
         wt = 0.45 * B * np.sqrt(1 + 0.08 * trav / max(B, 1.0))
-        le, ln_, re, rn = se + px * wt, sn + py * wt, se - px * wt, sn - py * wt
-        turb = np.stack([np.stack([le[:-1], ln_[:-1]], -1), np.stack([le[1:], ln_[1:]], -1),
-                         np.stack([re[1:], rn[1:]], -1), np.stack([re[:-1], rn[:-1]], -1)], axis=1)
+        strip(0, se + px * wt, sn + py * wt, se - px * wt, sn - py * wt)
         fade = float(np.clip(sp / 7.0, 0.2, 0.75)) * np.exp(-tau / 6.0)
         a_seg = 0.5 * (fade[:-1] + fade[1:])
-        polys, alphas = [turb], [a_seg]
+        al[:nq] = a_seg
         # Kelvin arms, spreading from the bow at 19.5 degrees
         be, bn = e + 0.45 * L * fx, n + 0.45 * L * fy
-        kel = np.tan(np.radians(19.47)) * (trav + 0.3 * L) + 0.3 * B
+        kel = 0.3536 * (trav + 0.3 * L) + 0.3 * B  # tan(19.47 deg) = 0.3536
         aw = 0.15 * B + 0.03 * trav
-        for side in (-1.0, 1.0):
+        for j, side in enumerate((-1.0, 1.0)):
             ce_, cn_ = be + side * px * kel, bn + side * py * kel
-            ie, in_ = ce_ - side * px * aw, cn_ - side * py * aw
-            oe, on_ = ce_ + side * px * aw, cn_ + side * py * aw
-            polys.append(np.stack([np.stack([ie[:-1], in_[:-1]], -1), np.stack([ie[1:], in_[1:]], -1),
-                                   np.stack([oe[1:], on_[1:]], -1), np.stack([oe[:-1], on_[:-1]], -1)], axis=1))
-            alphas.append(0.6 * a_seg)
+            strip(nq * (1 + j), ce_ - side * px * aw, cn_ - side * py * aw, ce_ + side * px * aw, cn_ + side * py * aw)
+            al[nq * (1 + j):nq * (2 + j)] = 0.6 * a_seg
         # bow wave
         b0e, b0n = be[0] + 0.05 * L * fx[0], bn[0] + 0.05 * L * fy[0]
-        polys.append(np.array([[
-            (b0e, b0n),
-            (b0e - 0.25 * L * fx[0] + 0.55 * B * px[0], b0n - 0.25 * L * fy[0] + 0.55 * B * py[0]),
-            (b0e - 0.3 * L * fx[0], b0n - 0.3 * L * fy[0]),
-            (b0e - 0.25 * L * fx[0] - 0.55 * B * px[0], b0n - 0.25 * L * fy[0] - 0.55 * B * py[0]),
-        ]]))
-        alphas.append(np.array([min(0.9, 1.2 * fade[0])]))
-        Q = np.concatenate(polys).reshape(-1, 2)
-        al = np.concatenate(alphas)
+        f0, f1, p0, p1 = fx[0], fy[0], px[0], py[0]
+        Q[-1] = ((b0e, b0n), (b0e - 0.25 * L * f0 + 0.55 * B * p0, b0n - 0.25 * L * f1 + 0.55 * B * p1),
+                 (b0e - 0.3 * L * f0, b0n - 0.3 * L * f1),
+                 (b0e - 0.25 * L * f0 - 0.55 * B * p0, b0n - 0.25 * L * f1 - 0.55 * B * p1))
+        al[-1] = min(0.9, 1.2 * fade[0])
+        Q = Q.reshape(-1, 2)
         ce, cn = self._to_cam(Q[:, 0], Q[:, 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
         ok = (dd > 0.5).reshape(-1, 4).all(axis=1)
@@ -651,12 +638,7 @@ class Renderer:
         polys = np.stack([uu - x0, vv - y0], axis=-1)
         fill_polys(alpha3, polys, np.full(len(al), 4, np.int64), al[:, None].astype(np.float64))
         alpha = alpha3[..., 0]
-        foam = self._foam
-        alpha *= foam[(np.arange(y0, y1) % foam.shape[0])[:, None],
-                      ((np.arange(x0, x1) + int(7 * t_s)) % foam.shape[1])[None, :]]
-        a = alpha[..., None]
-        roi = img[y0:y1, x0:x1]
-        roi[:] = (roi * (1 - a) + self._foam_col * a).astype(np.uint8)
+        blend_foam(img, y0, x0, alpha, self._foam_col, self._foam, int(7 * t_s))
 
     # ---------------------------------------------------------------------- sensor
     def _finish(self, img: np.ndarray, frame_seed: int) -> np.ndarray:
@@ -668,9 +650,9 @@ class Renderer:
             img = cv2.subtract(img, self._fpn[1]).reshape(img.shape)
         if self._noise_pos is not None:
             rng = np.random.default_rng([self.seed, 5, frame_seed])
-            dx, dy = (int(x) for x in rng.integers(0, self._pad, 2))
-            img = cv2.add(img, self._noise_pos[dy:dy + self.H, dx:dx + self.W]).reshape(img.shape)
-            img = cv2.subtract(img, self._noise_neg[dy:dy + self.H, dx:dx + self.W]).reshape(img.shape)
+            dy = int(rng.integers(0, self._pad))  # whole rows: a contiguous slice
+            img = cv2.add(img, self._noise_pos[dy:dy + self.H]).reshape(img.shape)
+            img = cv2.subtract(img, self._noise_neg[dy:dy + self.H]).reshape(img.shape)
         if o.ir:
             img = img[..., 0]
             if o.ir_polarity == "black_hot":

@@ -178,6 +178,7 @@ class Scenario:
             sky=sky, coasts=coasts, options=options, seed=self.seed, world_to_camera=self.world_to_camera,
         )
         self._last: tuple[int, RenderResult] | None = None
+        self._fixed_cam: CameraModel | None = None
         self._ais: AISStream | None = None
         self._radar = None
 
@@ -209,6 +210,10 @@ class Scenario:
 
     def camera_at(self, i: int) -> CameraModel:
         """The true camera of frame ``i``: commanded PTZ plus shake."""
+        if self.shake is None and len(self.schedule.times_s) == 1:  # a fixed camera
+            if self._fixed_cam is None:
+                self._fixed_cam = self.camera.with_ptz(self.schedule.at(0.0))
+            return self._fixed_cam
         t = self.time_s(i)
         cam = self.camera.with_ptz(self.schedule.at(t))
         if self.shake is not None:
@@ -413,6 +418,7 @@ def _camera(width, height, hfov_deg, lat, lon, height_m, pan, tilt, roll=0.0) ->
 
 
 def _harbour(seed, width, height, duration_s, fps, ir=False, name="harbour"):
+    """Fixed harbour camera, 6 vessels (one without AIS), the ferry partly hides a sailboat, coastline."""
     rng = np.random.default_rng([seed, 1])
     cam = _camera(width, height, 50.0, 50.7950, -1.1080, 22.0, 160.0, -3.5)
     j = lambda s=1.0: float(rng.uniform(-s, s))  # small seeded variations
@@ -444,10 +450,12 @@ def _harbour(seed, width, height, duration_s, fps, ir=False, name="harbour"):
 
 
 def _ir(seed, width, height, duration_s, fps):
+    """Thermal (IR, white-hot) harbour at dusk: halo around warm vessels, blur, fixed-pattern noise."""
     return _harbour(seed, width, height, duration_s, fps, ir=True, name="ir")
 
 
 def _pan(seed, width, height, duration_s, fps):
+    """PTZ camera panning across a harbour and zooming 3.5x on a ship, with shake and JPEG."""
     rng = np.random.default_rng([seed, 2])
     cam = _camera(width, height, 50.0, 50.7950, -1.1080, 25.0, 140.0, -1.5)
     j = lambda s=1.0: float(rng.uniform(-s, s))
@@ -477,6 +485,7 @@ def _pan(seed, width, height, duration_s, fps):
 
 
 def _crossing(seed, width, height, duration_s, fps):
+    """Two boats cross in front of a low camera; the near ferry fully hides the far motorboat at 12 s."""
     rng = np.random.default_rng([seed, 3])
     cam = _camera(width, height, 40.0, 50.8000, -1.1000, 8.0, 90.0, -0.8)
     t_x = 12.0  # both boats cross the line of sight at this time
@@ -495,6 +504,7 @@ def _crossing(seed, width, height, duration_s, fps):
 
 
 def _open_sea(seed, width, height, duration_s, fps):
+    """Open sea from a swaying mast (rolling horizon), far ships, one AIS position spoofed."""
     rng = np.random.default_rng([seed, 4])
     cam = _camera(width, height, 50.0, 50.6000, -1.0000, 15.0, 200.0, -1.0, roll=1.0)
     j = lambda s=1.0: float(rng.uniform(-s, s))

@@ -103,24 +103,27 @@ class WaveField:
         spec = spec * spread
         spec[k > 6 * kp] *= np.exp(-(k[k > 6 * kp] / (6 * kp) - 1.0) * 2)
         amp = np.sqrt(spec)
-        self._h0 = amp * (rng.standard_normal(k.shape) + 1j * rng.standard_normal(k.shape))
+        h0 = amp * (rng.standard_normal(k.shape) + 1j * rng.standard_normal(k.shape))
+        # real surface: H(k, t) = h0(k) e^{i w t} + conj(h0(-k)) e^{-i w t}
+        neg = (-np.arange(size)) % size
+        self._h0 = h0
+        self._h0m = np.conj(h0[neg][:, neg])
         # deep-water dispersion, quantised so the animation is periodic in loop_s
         w0 = 2 * np.pi / self.loop_s
         self._omega = np.round(np.sqrt(G_MPS2 * k) / w0) * w0
         self._kx, self._ky = kx, ky
-        # normalise slopes so that ``roughness`` 1 gives a typical slope std of ~0.6 in shade units
+        # slopes: sx + i sy = ifft2(i kx H + i (i ky H)) = ifft2(i (kx + i ky) H), both real fields
+        self._grad = 1j * (kx + 1j * ky)
         sx, sy = self._slopes(0.0)
         self._scale = 1.0 / max(1e-9, float(np.std(np.hypot(sx, sy))))
         self.roughness = float(roughness)
         self._cache: dict[int, np.ndarray] = {}
-        self._glint_rng = np.random.default_rng(seed + 1)
 
     def _slopes(self, t_s: float):
         ph = np.exp(1j * self._omega * t_s)
-        h = self._h0 * ph
-        sx = np.real(np.fft.ifft2(1j * self._kx * h))
-        sy = np.real(np.fft.ifft2(1j * self._ky * h))
-        return sx, sy
+        H = self._h0 * ph + self._h0m * np.conj(ph)
+        z = np.fft.ifft2(self._grad * H)
+        return z.real, z.imag
 
     def frame_index(self, t_s: float) -> int:
         return int(math.floor(t_s / self.loop_s * self.n_frames + 1e-9)) % self.n_frames

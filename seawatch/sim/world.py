@@ -106,8 +106,20 @@ class Trajectory:
         -------
         e_m, n_m, course_deg, speed_mps : arrays shaped like ``t_s``
         """
-        t = np.asarray(t_s, dtype=np.float64)
         ts, es, ns, cs, legs = self._table
+        if isinstance(t_s, (float, int)):  # scalar fast path (pure Python arithmetic)
+            k = max(0, min(len(ts) - 1, int(np.searchsorted(ts, t_s, side="right")) - 1))
+            dt = float(t_s) - float(ts[k])
+            v, wd = float(legs[k, 1]), float(legs[k, 2])
+            c0 = float(cs[k])
+            if abs(wd) < 1e-9:
+                c = math.radians(c0)
+                return float(es[k]) + v * dt * math.sin(c), float(ns[k]) + v * dt * math.cos(c), c0 % 360.0, v
+            w = math.radians(wd)
+            a0, a1 = math.radians(c0), math.radians(c0) + w * dt
+            return (float(es[k]) + v / w * (math.cos(a0) - math.cos(a1)),
+                    float(ns[k]) + v / w * (math.sin(a1) - math.sin(a0)), (c0 + wd * dt) % 360.0, v)
+        t = np.asarray(t_s, dtype=np.float64)
         k = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 1)
         v, w = legs[k, 1], legs[k, 2]
         dt = t - ts[k]
