@@ -108,6 +108,8 @@ class FusionSettings:
     pos_sigma_m: float = 10.0
     range_frac: float = 0.3  # tolerated relative range error (waterline elevation)
     rate_box_frac: float = 0.05  # box jitter in the rates: fraction of the box's angular size per second
+    rate_window_s: float = 2.0  # rates fitted to each track's angles over this window (0: the tracker's velocity)
+    frame_align_min_pairs: int = 2  # remove a frame's common elevation error when this many tracks are identified (0: off)
     gate_sigma: float = 3.0
     min_support_s: float = 2.0
     min_llr: float = 1.0
@@ -117,6 +119,7 @@ class FusionSettings:
     calib_max_offset_deg: float = 5.0
     theta0_deg: float = 15.0
     ais_unseen_dwell_s: float = 10.0
+    ais_warmup_s: float = 10.0  # no "no AIS" alert before AIS has been received this long
     min_visible_px: float = 8.0
     max_visible_range_m: float = 8000.0
     spoof_dwell_s: float = 5.0

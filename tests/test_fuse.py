@@ -230,7 +230,10 @@ def test_self_calibration_recovers_heading_and_tilt():
     # azimuth of the box centre vs the antenna (centre here): pan offset = true - nominal
     assert cal["pan_offset_deg"] == pytest.approx(1.2, abs=0.1)
     assert cal["tilt_offset_deg"] == pytest.approx(-0.25, abs=0.06)
-    assert 0 < cal["pan_sigma_deg"] < 0.1 and cal["n_samples"] >= 30
+    # the uncertainty allows for the unknown antenna position along each hull; the offsets are significant
+    assert 0 < cal["pan_sigma_deg"] < 0.5 * abs(cal["pan_offset_deg"])
+    assert 0 < cal["tilt_sigma_deg"] < 0.5 * abs(cal["tilt_offset_deg"])
+    assert cal["n_samples"] >= 30 and cal["n_vessels"] == 3
 
 
 def test_radar_tracks_give_range_without_ais():

@@ -18,7 +18,7 @@ from scipy.optimize import linear_sum_assignment
 
 from seawatch.fuse.table import TargetStates
 
-__all__ = ["index_of", "TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
+__all__ = ["AngleHistory", "index_of", "TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
            "angle_diff_deg", "WindowAssociator"]
 
 
@@ -147,6 +147,7 @@ def pair_distance2(
     range_frac: float = 0.3,
     rate_box_frac: float = 0.05,
     gate_deg: float = np.inf,
+    motion_cap: float = 4.5,
 ) -> np.ndarray:
     """Normalised squared distance between every camera track and every target, (N, M).
 
@@ -158,7 +159,7 @@ def pair_distance2(
       error shows up as a proportional elevation error) plus the position uncertainty.
     * Motion: azimuth and elevation rates, with ``sigma_rate_dps`` plus a quarter of the target's
       rate plus ``rate_box_frac`` of the box's angular size per second (box jitter); left out for
-      tracks whose rate is not valid (just born).
+      tracks whose rate is not valid (just born); its contribution is capped at ``motion_cap``.
 
     Target position uncertainty grows with report age and speed
     (``pos_sigma_m + speed_sigma_frac * speed * age``).  Pairs whose azimuth distance (beyond the
@@ -175,15 +176,104 @@ def pair_distance2(
     hh = trk.half_height_deg if trk.half_height_deg is not None else 0.5 * trk.half_width_deg
     s_rate = sigma_rate_dps + 0.25 * np.abs(tgt.az_rate_dps)[None, :] + (2 * rate_box_frac * trk.half_width_deg)[:, None]
     drate = trk.az_rate_dps[:, None] - tgt.az_rate_dps[None, :]
-    s_erate = 0.5 * sigma_rate_dps + 0.25 * np.abs(tgt.el_rate_dps)[None, :] + (2 * rate_box_frac * hh)[:, None]
+    s_erate = sigma_rate_dps + 0.25 * np.abs(tgt.el_rate_dps)[None, :] + (2 * rate_box_frac * hh)[:, None]
     derate = trk.el_rate_dps[:, None] - tgt.el_rate_dps[None, :]
     motion = (drate / s_rate) ** 2 + (derate / s_erate) ** 2
     if trk.rate_valid is not None:
         motion *= trk.rate_valid[:, None]
-    d2 += motion
+    # one frame's rates alone never rule a pair out (rates are the noisiest measurement)
+    d2 += np.minimum(motion, motion_cap)
     if np.isfinite(gate_deg):
         d2[daz > gate_deg] = np.inf
     return d2
+
+
+class AngleHistory:
+    """Recent azimuth/elevation of every camera track, for rates fitted over a short window.
+
+    Rates measured this way are in world angles (a panning camera's motion drops out) and are
+    far less noisy than a tracker's frame-to-frame pixel velocity.
+
+    Parameters
+    ----------
+    window_s : float, fit window.
+    size : int, samples kept per track.
+    forget_s : float, tracks unseen this long are dropped.
+    """
+
+    def __init__(self, window_s: float = 2.0, size: int = 32, forget_s: float = 10.0):
+        self.window_s = float(window_s)
+        self.K = int(size)
+        self.forget_s = float(forget_s)
+        self.rows: dict[int, int] = {}
+        self._free: list[int] = []
+        cap = 64
+        self.T = np.full((cap, self.K), np.nan)
+        self.AZ = np.zeros((cap, self.K))
+        self.EL = np.zeros((cap, self.K))
+        self.pos = np.zeros(cap, np.int64)
+        self.seen = np.full(cap, -np.inf)
+        self._n = 0
+        self._last_forget = -np.inf
+
+    def _row(self, tid: int) -> int:
+        r = self.rows.get(tid)
+        if r is None:
+            if self._free:
+                r = self._free.pop()
+            else:
+                r = self._n
+                self._n += 1
+                if r >= len(self.pos):
+                    g = len(self.pos)
+                    self.T = np.vstack([self.T, np.full((g, self.K), np.nan)])
+                    self.AZ = np.vstack([self.AZ, np.zeros((g, self.K))])
+                    self.EL = np.vstack([self.EL, np.zeros((g, self.K))])
+                    self.pos = np.concatenate([self.pos, np.zeros(g, np.int64)])
+                    self.seen = np.concatenate([self.seen, np.full(g, -np.inf)])
+            self.rows[tid] = r
+            self.T[r] = np.nan
+            self.pos[r] = 0
+        return r
+
+    def update(self, t_s: float, ids, az_deg, el_deg) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Add this frame's angles; returns ``az_rate_dps, el_rate_dps, valid`` per track.
+
+        A rate is valid when the track has at least 3 samples spanning half the window.
+        """
+        ids = np.asarray(ids, np.int64)
+        n = len(ids)
+        if t_s - self._last_forget >= 1.0 or t_s < self._last_forget:
+            for tid, r in list(self.rows.items()):
+                if t_s - self.seen[r] > self.forget_s:
+                    del self.rows[tid]
+                    self._free.append(r)
+            self._last_forget = t_s
+        if n == 0:
+            return np.zeros(0), np.zeros(0), np.zeros(0, bool)
+        rows = np.fromiter((self._row(int(t)) for t in ids), np.int64, n)
+        k = self.pos[rows] % self.K
+        self.T[rows, k] = t_s
+        self.AZ[rows, k] = az_deg
+        self.EL[rows, k] = el_deg
+        self.pos[rows] += 1
+        self.seen[rows] = t_s
+        T = self.T[rows]
+        w = np.isfinite(T) & (T >= t_s - self.window_s)
+        cnt = w.sum(axis=1)
+        tt = np.where(w, T - t_s, 0.0)
+        span = np.where(w, tt, 0.0).min(axis=1) * -1.0
+        daz = np.where(w, angle_diff_deg(self.AZ[rows], np.asarray(az_deg, float)[:, None]), 0.0)
+        de = np.where(w, self.EL[rows] - np.asarray(el_deg, float)[:, None], 0.0)
+        c = np.maximum(cnt, 1)
+        mt = tt.sum(axis=1) / c
+        tc = np.where(w, tt - mt[:, None], 0.0)
+        var = (tc * tc).sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            az_rate = (tc * daz).sum(axis=1) / var
+            el_rate = (tc * de).sum(axis=1) / var
+        valid = (cnt >= 3) & (span >= 0.5 * self.window_s) & (var > 0)
+        return np.where(valid, az_rate, 0.0), np.where(valid, el_rate, 0.0), valid
 
 
 class WindowAssociator:

@@ -13,6 +13,7 @@ import numpy as np
 from seawatch.config import FusionSettings
 from seawatch.fuse.alerts import Alert
 from seawatch.fuse.associate import (
+    AngleHistory,
     TrackAngles,
     WindowAssociator,
     angle_diff_deg,
@@ -38,22 +39,29 @@ def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
 class Calibration:
     """Self-calibration of the camera's heading (pan) and tilt from confident matches.
 
-    Samples are ``(t, pair, az_target - az_track, el_target - el_track)`` from raw (uncorrected)
-    camera angles, at most one per pair per ``interval_s``; the offsets are the medians of the
-    latest ``max_samples`` and their standard errors ``1.2533 * 1.4826 * MAD / sqrt(n)``.
+    Samples are ``az_target - az_track`` and ``el_target - el_track`` from raw (uncorrected)
+    camera angles with inverse-variance weights, at most one per (track, vessel) pair per
+    ``interval_s``; once there are ``min_samples`` from at least ``min_pairs`` different vessels
+    (one vessel cannot tell a camera error from its own AIS error), the offsets are the weighted
+    medians of the latest ``max_samples`` and their standard errors
+    ``1.2533 * 1.4826 * MAD / sqrt(n_eff)``.
     """
 
     def __init__(self, max_samples: int = 400, interval_s: float = 1.0, min_samples: int = 10,
-                 max_offset_deg: float = 5.0):
+                 max_offset_deg: float = 5.0, min_pairs: int = 2):
         self.samples: deque = deque(maxlen=int(max_samples))
         self.interval_s = float(interval_s)
         self.min_samples = int(min_samples)
+        self.min_pairs = int(min_pairs)
+        self._pairs: dict[tuple[int, int], int] = {}
         self.max_offset_deg = float(max_offset_deg)
         self._last: dict[tuple[int, int], float] = {}
         self.pan_offset_deg = 0.0
         self.tilt_offset_deg = 0.0
         self.pan_sigma_deg = float("nan")
         self.tilt_sigma_deg = float("nan")
+        self.pan_estimate_deg = float("nan")
+        self.tilt_estimate_deg = float("nan")
 
     def add(self, t_s: float, pair: tuple[int, int], daz_deg: float, del_deg: float,
             w_az: float = 1.0, w_el: float = 1.0) -> None:
@@ -62,33 +70,58 @@ class Calibration:
         if last is not None and t_s - last < self.interval_s:
             return
         self._last[pair] = t_s
-        self.samples.append((daz_deg, del_deg, w_az, w_el))
+        if len(self.samples) == self.samples.maxlen:
+            old = self.samples[0][4]
+            self._pairs[old] -= 1
+            if not self._pairs[old]:
+                del self._pairs[old]
+        self.samples.append((daz_deg, del_deg, w_az, w_el, pair))
+        self._pairs[pair] = self._pairs.get(pair, 0) + 1
 
     def estimate(self) -> bool:
-        """Recompute the offsets; returns True when they are set (enough samples)."""
+        """Recompute the offsets; returns True when there are enough samples and vessels.
+
+        Per vessel, the weighted median of its samples; across vessels, the median weighted by
+        each vessel's inverse variance.  The standard error is the larger of the spread between
+        vessels (``1.2533 * 1.4826 * MAD / sqrt(n_eff)``) and ``1 / sqrt(sum of inverse
+        variances)``.  An offset is applied only when it exceeds twice its standard error.
+        """
         n = len(self.samples)
-        if n < self.min_samples:
+        if n < self.min_samples or len({p[1] for p in self._pairs}) < self.min_pairs:
             return False
-        a = np.asarray(self.samples)
+        groups: dict[tuple, list] = {}
+        for x in self.samples:
+            groups.setdefault(x[4], []).append(x[:4])
         out = []
-        for x, w in ((a[:, 0], a[:, 2]), (a[:, 1], a[:, 3])):
-            med = _weighted_median(x, w)
-            mad = _weighted_median(np.abs(x - med), w)
-            n_eff = w.sum() ** 2 / np.sum(w * w)
-            out.append((med, 1.2533 * 1.4826 * max(mad, 1e-3) / math.sqrt(n_eff)))
+        for d in (0, 1):
+            m, wv = [], []
+            for rows in groups.values():
+                g = np.asarray(rows)
+                m.append(_weighted_median(g[:, d], g[:, 2 + d]))
+                wv.append(float(np.median(g[:, 2 + d])))
+            m, wv = np.asarray(m), np.asarray(wv)
+            med = _weighted_median(m, wv)
+            mad = _weighted_median(np.abs(m - med), wv)
+            n_eff = wv.sum() ** 2 / np.sum(wv * wv)
+            se = max(1.2533 * 1.4826 * mad / math.sqrt(n_eff), 1.0 / math.sqrt(wv.sum()))
+            out.append((med, se))
         (mp, sp), (mt, stt) = out
-        self.pan_offset_deg = float(np.clip(mp, -self.max_offset_deg, self.max_offset_deg))
-        self.tilt_offset_deg = float(np.clip(mt, -self.max_offset_deg, self.max_offset_deg))
+        self.pan_estimate_deg, self.tilt_estimate_deg = float(mp), float(mt)
+        self.pan_offset_deg = float(np.clip(mp, -self.max_offset_deg, self.max_offset_deg)) if abs(mp) > 2 * sp else 0.0
+        self.tilt_offset_deg = float(np.clip(mt, -self.max_offset_deg, self.max_offset_deg)) if abs(mt) > 2 * stt else 0.0
         self.pan_sigma_deg, self.tilt_sigma_deg = float(sp), float(stt)
         return True
 
     def as_dict(self) -> dict:
         return {
             "pan_offset_deg": self.pan_offset_deg,
+            "pan_estimate_deg": self.pan_estimate_deg,
             "pan_sigma_deg": self.pan_sigma_deg,
             "tilt_offset_deg": self.tilt_offset_deg,
+            "tilt_estimate_deg": self.tilt_estimate_deg,
             "tilt_sigma_deg": self.tilt_sigma_deg,
             "n_samples": len(self.samples),
+            "n_vessels": len({p[1] for p in self._pairs}),
         }
 
 
@@ -148,6 +181,7 @@ class Fuser:
         mk = lambda: WindowAssociator(s.window_s, s.gate_sigma, s.min_llr, s.min_support_s,  # noqa: E731
                                       s.switch_margin, forget_s=max(30.0, 3 * s.window_s))
         self.assoc = mk()
+        self.angles = AngleHistory(s.rate_window_s if s.rate_window_s > 0 else 2.0)
         self.assoc_vts = mk()
         self.calib = Calibration(min_samples=s.calib_min_samples, max_offset_deg=s.calib_max_offset_deg)
         self.theta = estimate_theta_robust(np.zeros((0, 2)), np.zeros((0, 2)))
@@ -177,6 +211,8 @@ class Fuser:
         self.n_updates = 0
         self.n_alerts: dict[str, int] = {"no_ais": 0, "ais_not_seen": 0, "possible_spoofing": 0}
         self._t_prev: float | None = None
+        self._ais_since: float | None = None  # AIS clock time of the first report received
+        self.frame_el_offset_deg = 0.0
         self._last = None
         if ais is not None:
             self.add_ais(ais)
@@ -271,6 +307,8 @@ class Fuser:
         reps = self._feed.release(t_ais)
         if reps:
             self.ais.add_reports(reps)
+            if self._ais_since is None:
+                self._ais_since = min(t_ais, min(r.t_s for r in reps))
         if self._radar is not None and self._radar_i < len(self._radar):
             j = int(np.searchsorted(self._radar["t_s"], t_ais, side="right"))
             if j > self._radar_i:
@@ -284,7 +322,13 @@ class Fuser:
         ta = track_angles(cam, tracks.boxes, tracks.velocities, self.calib.pan_offset_deg, self.calib.tilt_offset_deg,
                           tracks.ages_s)
         # --- AIS
-        st, tg, d2 = self._candidates(self.ais, t_ais, cam, ta)
+        st, tg = self._targets(self.ais, t_ais, cam)
+        el_before_align = ta.el_deg.copy()
+        self._frame_align(ids, ta, st, tg)
+        if s.rate_window_s > 0:  # rates fitted to the track's recent angles instead of the tracker's velocity
+            ta.az_rate_dps, ta.el_rate_dps, ta.rate_valid = self.angles.update(
+                t_ais, ids, ta.az_deg - self.calib.pan_offset_deg, ta.el_deg - self.calib.tilt_offset_deg)
+        d2 = self._distance(ta, st, tg)
         keys, conf = self.assoc.update(t_ais, ids, st.keys, d2, eligible=confirmed)
         # --- VTS (radar), for tracks without AIS
         vkeys = np.zeros(n, np.int64)
@@ -294,7 +338,7 @@ class Fuser:
             vkeys, _ = self.assoc_vts.update(t_ais, ids, vst.keys, vd2, eligible=confirmed)
         # --- calibration from confident, unambiguous matches
         if s.self_calibrate and n and len(st):
-            self._calibrate(t_ais, ids, ta, st, tg, d2, keys, conf)
+            self._calibrate(t_ais, ids, ta, st, tg, d2, keys, conf, el_before_align)
         self._record_positions(t_ais, cam, tracks)
         self._theta_update(t_ais, cam, tracks, ta, st, tg, d2, keys)
         # --- outputs
@@ -309,28 +353,60 @@ class Fuser:
         self._last = (t, t_ais, out, keys, vst, vkeys)
         return out, alerts
 
-    def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
+    def _targets(self, table: TargetTable, t_ais: float, cam):
+        """Targets dead-reckoned to ``t_ais`` near the field of view, and their angles."""
         s = self.settings
         st = table.states_at(t_ais)
-        e0, n0, _ = 0.0, 0.0, 0.0
         if len(st):
-            de, dn = st.e_m - e0, st.n_m - n0
-            rng = np.hypot(de, dn)
-            az = np.degrees(np.arctan2(de, dn))
+            rng = np.hypot(st.e_m, st.n_m)
+            az = np.degrees(np.arctan2(st.e_m, st.n_m))
             half = 0.5 * cam.intrinsics.hfov_deg + s.gate_deg + 5.0
             keep = (rng <= s.max_range_m) & (np.abs(angle_diff_deg(az, cam.pose.pan_deg)) <= half)
             if not keep.all():
                 st = st.subset(keep)
-        tg = target_angles(st, 0.0, 0.0, cam.pose.height_m, cam.r_eff_m)
-        if len(ta.az_deg) == 0 or len(st) == 0:
-            return st, tg, np.zeros((len(ta.az_deg), len(st)))
-        sp = st.speed_mps
-        d2 = pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
-                            s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
-                            rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
-        return st, tg, d2
+        return st, target_angles(st, 0.0, 0.0, cam.pose.height_m, cam.r_eff_m)
 
-    def _calibrate(self, t_ais, ids, ta, st, tg, d2, keys, conf) -> None:
+    def _distance(self, ta: TrackAngles, st, tg) -> np.ndarray:
+        s = self.settings
+        if len(ta.az_deg) == 0 or len(st) == 0:
+            return np.zeros((len(ta.az_deg), len(st)))
+        sp = st.speed_mps
+        return pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
+                              s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
+                              rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
+
+    def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
+        st, tg = self._targets(table, t_ais, cam)
+        return st, tg, self._distance(ta, st, tg)
+
+    def _frame_align(self, ids: np.ndarray, ta: TrackAngles, st, tg) -> None:
+        """Remove this frame's common elevation error (a swaying or jittering camera).
+
+        The residuals ``el_AIS - el_camera`` of the tracks that held an identity at the previous
+        frame are common to all tracks when the camera moves; each track is shifted by the median
+        residual of the *other* identified tracks (leave-one-out, so a track never corrects
+        itself), when there are at least ``frame_align_min_pairs`` (>= 2) of them.
+        """
+        k_min = max(2, self.settings.frame_align_min_pairs) if self.settings.frame_align_min_pairs > 0 else 0
+        assigned = self.assoc.assigned
+        if k_min <= 0 or len(assigned) < k_min or not len(st):
+            self.frame_el_offset_deg = 0.0
+            return
+        prev = np.array([assigned.get(t, -1) for t in ids.tolist()], np.int64)
+        jj = index_of(st.keys, prev)
+        ii = np.flatnonzero(jj >= 0)
+        if len(ii) < k_min:
+            self.frame_el_offset_deg = 0.0
+            return
+        res = tg.el_deg[jj[ii]] - ta.el_deg[ii]
+        off = np.full(len(ids), float(np.median(res)))
+        m = np.tile(res, (len(ii), 1))  # identified tracks: the median of the others
+        np.fill_diagonal(m, np.nan)
+        off[ii] = np.nanmedian(m, axis=1)
+        ta.el_deg = ta.el_deg + off
+        self.frame_el_offset_deg = float(np.median(res))
+
+    def _calibrate(self, t_ais, ids, ta, st, tg, d2, keys, conf, el_before_align) -> None:
         s = self.settings
         if t_ais - self._calib_last_t < 0.5 and t_ais >= self._calib_last_t:
             return
@@ -341,16 +417,21 @@ class Fuser:
         if not len(ii):
             return
         jj = jj[ii]
-        # unambiguous: no runner-up within twice the gate, in either direction
-        near = d2 < 4 * g2
-        ok = (near[ii].sum(axis=1) == 1) & (near[:, jj].sum(axis=0) == 1)
+        # unambiguous: no runner-up within the gate, in either direction
+        near = d2 < g2
+        ok = (near[ii].sum(axis=1) <= 1) & (near[:, jj].sum(axis=0) <= 1) & near[ii, jj]
         ii, jj = ii[ok], jj[ok]
         raw_az = ta.az_deg[ii] - self.calib.pan_offset_deg
-        raw_el = ta.el_deg[ii] - self.calib.tilt_offset_deg
+        raw_el = el_before_align[ii] - self.calib.tilt_offset_deg
         daz = angle_diff_deg(tg.az_deg[jj], raw_az)
         del_ = tg.el_deg[jj] - raw_el
-        w_az = 1.0 / (s.sigma_az_deg ** 2 + ta.half_width_deg[ii] ** 2)
-        w_el = 1.0 / (s.sigma_el_deg ** 2 + (s.range_frac * tg.el_deg[jj]) ** 2)
+        # per-vessel systematic variances (what does not average out over frames): the AIS antenna
+        # is anywhere along the hull (uniform over the box's half-width), the AIS position error
+        # seen at the vessel's range, and a small waterline / range error
+        pos_m = s.pos_sigma_m + st.speed_mps[jj] * s.ais_latency_s
+        pos = np.degrees(pos_m / np.maximum(tg.range_m[jj], 1.0))
+        w_az = 1.0 / (0.1 ** 2 + ta.half_width_deg[ii] ** 2 / 3.0 + pos ** 2)
+        w_el = 1.0 / (0.05 ** 2 + (0.05 * tg.el_deg[jj]) ** 2 + (tg.del_dr[jj] * pos_m) ** 2)
         for c, i in enumerate(ii.tolist()):
             self.calib.add(t_ais, (int(ids[i]), int(keys[i])), float(daz[c]), float(del_[c]), float(w_az[c]),
                            float(w_el[c]))
@@ -575,10 +656,15 @@ class Fuser:
                 continue
             if not np.isfinite(ta.range_m[i]):  # above the horizon: not a vessel on the sea
                 continue
+            hist = self._history.get(tid)
+            if hist is not None and hist[1] >= s.min_support_s:
+                # it had an identity: losing it is the spoofing check's business, not "no AIS"
+                continue
             if len(st) and np.any(free_cols & (d2[i] < loose)):
                 self._last_plausible[tid] = t
             start = max(self._first_conf[tid], self._last_plausible.get(tid, -np.inf))
-            if t - start >= s.no_ais_dwell_s and tid not in self._no_ais_alerted:
+            warm = self._ais_since is not None and t_ais - self._ais_since >= s.ais_warmup_s
+            if warm and t - start >= s.no_ais_dwell_s and tid not in self._no_ais_alerted:
                 self._no_ais_alerted.add(tid)
                 msg = (f"no AIS: camera track {tid} at bearing {ta.az_deg[i]:.1f} deg, range "
                        f"{ta.range_m[i]:.0f} m has no AIS counterpart for {t - start:.0f} s")
