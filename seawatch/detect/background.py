@@ -50,13 +50,14 @@ __all__ = ["RobustKalmanBackground", "RobustKalmanDetector", "robust_kalman_step
 # per-pixel state layout, planar ("structure of arrays", so the kernel vectorises): plane
 # 0 x, 1 P, 2 a, 3 q, 4 r, then the forgotten EM sufficient statistics 5 s_xx = sum <x_{t-1}^2>,
 # 6 s_da = sum (<x_t x_{t-1}> - <x_{t-1}^2>), 7 s_q = sum <(x_t - a x_{t-1})^2>,
-# 8 s_r = sum w <(y_t - x_t)^2>.  The forgotten frame count n is the same for every pixel.
-_NSTATE = 9
+# 8 s_r = sum w <(y_t - x_t)^2>, 9 s_e = sum (y_t - x_pred)^2 (unweighted innovation energy, for the
+# optional empirical test variance).  The forgotten frame count n is the same for every pixel.
+_NSTATE = 10
 _F = np.float32
 
 
 @nb.njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
-def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate,
+def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test, lam_e, n_e_old,
                a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
     n_ch, n_pix = y.shape
     k2 = k_sigma * k_sigma
@@ -65,6 +66,7 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate,
     two = _F(2.0)
     half = _F(0.5)
     inv_n = one / n_new
+    inv_ne = one / max(n_e_old, one)
     for c in range(n_ch):
         X = st[0, c]
         P = st[1, c]
@@ -75,6 +77,7 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate,
         SDA = st[6, c]
         SQ = st[7, c]
         SR = st[8, c]
+        SE = st[9, c]
         Y = y[c]
         for i in range(n_pix):
             x = X[i]
@@ -87,7 +90,13 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate,
             pp = a * a * p + Q[i]
             e = yi - xp
             e2 = e * e
-            fgc = e2 > k2 * (pp + r)
+            var = pp + r
+            if emp_test:
+                se = SE[i] * inv_ne
+                if se > var:
+                    var = se
+                SE[i] = lam_e * SE[i] + e2
+            fgc = e2 > k2 * var
             # Ting et al. (2007) observation weight: posterior mean of the Gamma-distributed weight
             w = ab / (beta + (e2 + pp) * (half / r))
             if hard_gate and fgc:
@@ -135,6 +144,9 @@ def robust_kalman_step(
     alpha: float = 1.0,
     beta: float = 1.0,
     hard_gate: bool = False,
+    empirical_test: bool = False,
+    forget_test: float = 0.99,
+    n_test_frames: float = 1.0,
     a_range: tuple[float, float] = (0.95, 1.05),
     q_range: tuple[float, float] = (1e-3, 400.0),
     r_range: tuple[float, float] = (0.25, 400.0),
@@ -157,6 +169,9 @@ def robust_kalman_step(
         Gamma prior of the observation weights (Ting et al. 2007).
     hard_gate : bool
         Do not update the background of foreground pixels at all.
+    empirical_test : bool
+        Test against ``max(P_pred + r, mean innovation energy)``, the energy forgotten with
+        ``forget_test`` per step and ``n_test_frames`` its forgotten frame count before this step.
     a_range, q_range, r_range : (float, float)
         Bounds of the learned parameters (intensity units; keep ``a`` near 1).
 
@@ -173,7 +188,8 @@ def robust_kalman_step(
     yy = np.ascontiguousarray(yy)
     fg = np.empty(h * w, np.uint8)
     _rk_kernel(yy, state, fg, _F(n_frames), _F(k_sigma), _F(forget), _F(alpha), _F(beta),
-               bool(hard_gate), _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
+               bool(hard_gate), bool(empirical_test), _F(forget_test), _F(n_test_frames),
+               _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
                _F(r_range[0]), _F(r_range[1]))
     return fg.reshape(h, w)
 
@@ -194,17 +210,29 @@ class RobustKalmanBackground:
     q0, r0 : float
         Initial process and observation variances (intensity units squared); ``P`` starts at
         ``r0``, ``a`` at 1.
+    r_min, r_max : float
+        Bounds of the learned observation variance (grey levels squared); the floor keeps a
+        flat sky or a saturated area from flagging its quantisation noise.
     warmup_s : float
         Seconds after the first frame during which the model learns and the mask is empty.
     prior_frames : float
         Weight, in frames, of ``q0`` and ``r0`` as pseudo-observations in the EM statistics (they
         are forgotten like real frames); keeps the first M-steps from collapsing.
+    empirical_test : bool
+        Not in the paper: test the innovation against the larger of the model's ``P_pred + r``
+        and its plain mean square over the window.  Ting's weights make ``r`` a robust scale
+        that ignores outliers, which is right for the background estimate but lets the heavy
+        tail of a glinting sea through the test; this keeps such pixels quiet.
+    test_window_s : float
+        Memory of that mean square (longer than ``window_s``, so that one passing vessel adds
+        little to it while a pixel that glints again and again builds it up).
     """
 
     def __init__(self, *, k_sigma: float = 3.0, window_s: float = 2.0, alpha: float = 1.0,
                  beta: float = 1.0, hard_gate: bool = False, q0: float = 1.0, r0: float = 16.0,
-                 warmup_s: float = 0.4, prior_frames: float = 3.0, a_range=(0.95, 1.05),
-                 q_range=(1e-3, 400.0), r_range=(0.25, 400.0)) -> None:
+                 warmup_s: float = 0.4, prior_frames: float = 3.0, empirical_test: bool = False,
+                 test_window_s: float = 10.0, r_min: float = 1.0, a_range=(0.95, 1.05),
+                 q_range=(1e-3, 400.0), r_max: float = 900.0) -> None:
         if window_s <= 0:
             raise ValueError(f"RobustKalmanBackground: window_s must be positive, got {window_s}")
         if k_sigma <= 0:
@@ -218,9 +246,11 @@ class RobustKalmanBackground:
         self.r0 = float(r0)
         self.warmup_s = float(warmup_s)
         self.prior_frames = float(prior_frames)
+        self.empirical_test = bool(empirical_test)
+        self.test_window_s = float(test_window_s)
         self.a_range = tuple(map(float, a_range))
         self.q_range = tuple(map(float, q_range))
-        self.r_range = tuple(map(float, r_range))
+        self.r_range = (float(r_min), float(r_max))
         self.state: np.ndarray | None = None
         self.n_frames = 0.0
         self._shape: tuple[int, ...] | None = None
@@ -247,7 +277,9 @@ class RobustKalmanBackground:
         st[5] = n0 * (st[0] ** 2 + self.r0)
         st[7] = n0 * self.q0
         st[8] = n0 * self.r0
+        st[9] = n0 * (self.r0 + self.q0)
         self.n_frames = n0
+        self.n_test_frames = n0
         self.state = st
         self._shape = y.shape
 
@@ -279,9 +311,13 @@ class RobustKalmanBackground:
         self._t_last = float(t_s)
         lam = math.exp(-dt / self.window_s)
         self.n_frames = lam * self.n_frames + 1.0
+        lam_e = math.exp(-dt / self.test_window_s)
+        n_e_old = self.n_test_frames
+        self.n_test_frames = lam_e * n_e_old + 1.0
         mask = robust_kalman_step(
             y, self.state, self.n_frames, k_sigma=self.k_sigma, forget=lam, alpha=self.alpha, beta=self.beta,
-            hard_gate=self.hard_gate, a_range=self.a_range,
+            hard_gate=self.hard_gate, empirical_test=self.empirical_test, forget_test=lam_e,
+            n_test_frames=n_e_old, a_range=self.a_range,
             q_range=self.q_range, r_range=self.r_range,
         )
         if float(t_s) - self._t0 < self.warmup_s:
@@ -294,7 +330,7 @@ class RobustKalmanDetector:
 
     Parameters
     ----------
-    k_sigma, window_s, alpha, beta, hard_gate, q0, r0, warmup_s
+    k_sigma, window_s, alpha, beta, hard_gate, q0, r0, warmup_s, empirical_test, test_window_s, r_min
         See :class:`RobustKalmanBackground`.
     work_width_px : int
         Width at which the model runs (the image is area-averaged, aspect kept, boxes scaled
@@ -307,6 +343,10 @@ class RobustKalmanDetector:
         Largest blob kept, as a fraction of the image area.
     open_px, close_px : int
         Opening / closing of the mask (working pixels); 0 or 1 disables.
+    persist_px : int
+        Not in the paper: when > 0, a pixel stays foreground only if the previous frame had
+        foreground within this many working pixels (a moving vessel persists, a wave glint
+        rarely does); 0 disables.
     camera : CameraModel, optional
         When given, each detection carries the azimuth / elevation of its bottom centre.
     """
@@ -317,16 +357,20 @@ class RobustKalmanDetector:
                  beta: float = 1.0, hard_gate: bool = False, q0: float = 1.0, r0: float = 16.0,
                  warmup_s: float = 0.4, work_width_px: int = 960, colour: bool = False,
                  min_area_px: float = 30.0, max_area_frac: float = 0.25, open_px: int = 0,
-                 close_px: int = 3, camera=None) -> None:
+                 close_px: int = 3, empirical_test: bool = False, test_window_s: float = 10.0,
+                 persist_px: int = 0, r_min: float = 1.0, camera=None) -> None:
         self.model = RobustKalmanBackground(k_sigma=k_sigma, window_s=window_s, alpha=alpha,
                                             beta=beta, hard_gate=hard_gate, q0=q0, r0=r0,
-                                            warmup_s=warmup_s)
+                                            warmup_s=warmup_s, empirical_test=empirical_test,
+                                            test_window_s=test_window_s, r_min=r_min)
         self.work_width_px = int(work_width_px)
         self.colour = bool(colour)
         self.min_area_px = float(min_area_px)
         self.max_area_frac = float(max_area_frac)
         self.open_px = int(open_px)
         self.close_px = int(close_px)
+        self.persist_px = int(persist_px)
+        self._prev_mask: np.ndarray | None = None
         self.camera = camera
         self.mask: np.ndarray | None = None  # last foreground mask (working size), for display
         self.n_bad_frames = 0
@@ -346,6 +390,7 @@ class RobustKalmanDetector:
     def reset(self) -> None:
         self.model.reset()
         self.mask = None
+        self._prev_mask = None
 
     def working_image(self, image: np.ndarray) -> np.ndarray:
         """The image the model sees: grey (or BGR), uint8, downscaled to ``work_width_px``."""
@@ -371,6 +416,15 @@ class RobustKalmanDetector:
             return Detections.empty(frame.t_s, frame.index, self.name, frame.camera_id)
         work = self.working_image(img)
         mask = self.model.apply(work, frame.t_s)
+        if self.persist_px > 0:
+            # keep foreground that was also foreground in the last frame within persist_px
+            prev = self._prev_mask
+            self._prev_mask = mask
+            if prev is None or prev.shape != mask.shape:
+                mask = np.zeros_like(mask)
+            else:
+                k = 2 * self.persist_px + 1
+                mask = mask & cv2.dilate(prev, np.ones((k, k), np.uint8))
         self.mask = mask
         h, w = img.shape[:2]
         scale = w / mask.shape[1]
