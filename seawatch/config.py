@@ -39,9 +39,10 @@ class RunSettings:
 class DetectorSettings:
     kind: str = "mog2"  # mog2 | cascade | robust_kalman | stable_features
     # MOG2 baseline
-    mog2_history_s: float = 20.0
-    mog2_var_threshold: float = 16.0
+    mog2_history_s: float = 60.0
+    mog2_var_threshold: float = 64.0
     mog2_learning_rate: float = -1.0
+    mog2_background_ratio: float = 0.7  # OpenCV's backgroundRatio (0.9 absorbs slow hulls in ~2 s)
     min_area_px: float = 30.0
     max_area_frac: float = 0.25
     # cascade (paper A)
@@ -65,6 +66,10 @@ class DetectorSettings:
     rk_colour: bool = False  # one model per BGR channel instead of grey
     rk_open_px: int = 0
     rk_close_px: int = 3
+    rk_empirical_test: bool = False  # also test against the plain innovation energy (sea glint)
+    rk_test_window_s: float = 20.0  # memory of that energy
+    rk_persist_px: int = 0  # foreground must persist from the last frame within this (0: off)
+    rk_r_min: float = 1.0  # floor of the learned observation variance (grey levels^2)
 
 
 @dataclass(frozen=True)
@@ -76,7 +81,24 @@ class TrackerSettings:
     iou_gate: float = 0.1
     num_particles: int = 500
     seed: int = 0
-    # ptracking (see docs/ptracking.md)
+    # GM-PHD multi-camera fusion (paper C, see docs/paper_c.md)
+    phd_accel_std_mps2: float = 0.3  # white-noise acceleration, horizontal
+    phd_vertical_accel_std_mps2: float = 0.02
+    phd_ps: float = 0.995  # survival probability per second
+    phd_ps_unseen: float = 0.8  # per second, outside every camera's view
+    phd_birth_weight: float = 0.02
+    phd_adaptive_birth: bool = True
+    phd_birth_range_m: list = field(default_factory=lambda: [1500.0, 3000.0, 4500.0])
+    phd_birth_sigma_range_m: float = 750.0
+    phd_birth_sigma_v_mps: float = 8.0
+    phd_birth_max_abs_up_m: float = 50.0  # births only near the sea surface
+    phd_prune_threshold: float = 1e-5
+    phd_merge_threshold: float = 4.0
+    phd_max_components: int = 100
+    phd_extract_threshold: float = 0.5
+    phd_extract_keep_threshold: float = 0.05  # hysteresis; 0.5 = none (the paper)
+    phd_penalise: bool = True  # penalised update (one detection per target per image)
+
     delta_px: float = 20.0  # KClusterize radius at 704 px wide, scaled with the image width
     group_shrink: float = 0.8  # boxes shrunk to this that overlap form a group
     colour_max_dist: float = 0.35  # HSV Bhattacharyya distance of a colour match
@@ -120,6 +142,8 @@ class FusionSettings:
     theta0_deg: float = 15.0
     ais_unseen_dwell_s: float = 10.0
     ais_warmup_s: float = 10.0  # no "no AIS" alert before AIS has been received this long
+    no_ais_range_ratio: float = 1.5  # an AIS vessel within gate_deg and this range factor may be the camera's vessel
+    min_vessel_length_m: float = 2.0  # tracks whose box implies a shorter vessel raise no "no AIS" alert
     min_visible_px: float = 8.0
     max_visible_range_m: float = 8000.0
     spoof_dwell_s: float = 5.0

@@ -73,9 +73,15 @@ class Mog2Detector:
     history_s : float
         Length of the background model's memory, in seconds.
     var_threshold : float
-        Squared Mahalanobis distance beyond which a pixel is foreground (OpenCV's ``varThreshold``).
+        Squared Mahalanobis distance beyond which a pixel is foreground (OpenCV's ``varThreshold``;
+        its default 16 turns sun glints on the waves into blobs).
     learning_rate : float
         Per-frame learning rate in 0..1; negative: automatic (``1 / history frames``).
+    background_ratio : float
+        Share of the mixture weight that counts as background (OpenCV's ``backgroundRatio``).
+        OpenCV's 0.9 makes a colour background once it has ~10 % of the weight, i.e. after
+        about ``0.1 * history`` frames: a slow hull that covers a pixel longer than that vanishes
+        into the background. 0.7 keeps it about three times longer.
     min_area_px : float
         Smallest blob kept, in pixels of the source image.
     max_area_frac : float
@@ -84,7 +90,8 @@ class Mog2Detector:
     warmup_s : float
         Seconds after the first frame during which the model learns and nothing is reported.
     open_px, close_px : int
-        Morphological opening / closing sizes in pixels of the working image.
+        Morphological opening / closing sizes in pixels of the working image; ``close_px`` None:
+        15 px at 704 px wide, scaled with the width (joins hull and superstructure).
     work_width_px : int
         Width at which the background model runs (the image is downscaled, keeping its aspect
         ratio, and the boxes are scaled back); 0 or a width >= the image width: native size.
@@ -98,14 +105,15 @@ class Mog2Detector:
         self,
         fps: float = 25.0,
         *,
-        history_s: float = 20.0,
-        var_threshold: float = 16.0,
+        history_s: float = 60.0,
+        var_threshold: float = 64.0,
         learning_rate: float = -1.0,
+        background_ratio: float = 0.7,
         min_area_px: float = 30.0,
         max_area_frac: float = 0.25,
         warmup_s: float = 1.0,
         open_px: int = 3,
-        close_px: int = 7,
+        close_px: int | None = None,
         work_width_px: int = 0,
     ) -> None:
         if not fps > 0:
@@ -116,11 +124,12 @@ class Mog2Detector:
         self.history_s = float(history_s)
         self.var_threshold = float(var_threshold)
         self.learning_rate = float(learning_rate)
+        self.background_ratio = float(background_ratio)
         self.min_area_px = float(min_area_px)
         self.max_area_frac = float(max_area_frac)
         self.warmup_s = float(warmup_s)
         self.open_px = int(open_px)
-        self.close_px = int(close_px)
+        self.close_px = None if close_px is None else int(close_px)
         self.work_width_px = int(work_width_px)
         self.history_frames = max(2, int(round(self.history_s * self.fps)))
         self._model = None
@@ -136,6 +145,7 @@ class Mog2Detector:
             history_s=d.mog2_history_s,
             var_threshold=d.mog2_var_threshold,
             learning_rate=d.mog2_learning_rate,
+            background_ratio=getattr(d, "mog2_background_ratio", 0.7),
             min_area_px=d.min_area_px,
             max_area_frac=d.max_area_frac,
             warmup_s=getattr(d, "mog2_warmup_s", 1.0),
@@ -152,6 +162,7 @@ class Mog2Detector:
         m = cv2.createBackgroundSubtractorMOG2(
             history=self.history_frames, varThreshold=self.var_threshold, detectShadows=False
         )
+        m.setBackgroundRatio(self.background_ratio)
         return m
 
     def foreground(self, image: np.ndarray) -> np.ndarray:
@@ -181,12 +192,15 @@ class Mog2Detector:
             return Detections.empty(frame.t_s, frame.index, self.name, frame.camera_id)
         h, w = frame.image.shape[:2]
         scale = w / mask.shape[1]
+        close_px = self.close_px
+        if close_px is None:  # 15 px at 704 px wide, scaled with the working width
+            close_px = max(3, int(round(15 * mask.shape[1] / 704)))
         boxes, fill = foreground_boxes(
             mask,
             min_area_px=self.min_area_px / scale**2,
             max_area_px=self.max_area_frac * mask.shape[0] * mask.shape[1],
             open_px=self.open_px,
-            close_px=self.close_px,
+            close_px=close_px,
         )
         if scale != 1.0:
             boxes = boxes * scale
