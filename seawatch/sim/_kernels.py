@@ -7,7 +7,7 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, water_top_y):
+def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, hi_r0, water_top_y):
     """Add the animated wave shading and sun glints to the water pixels of ``out`` (in place).
 
     Parameters
@@ -21,14 +21,16 @@ def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, water_top_y):
         Wave texture (shade, glint); T a power of two.
     gain, glint_col : (C,) float32
         Per-channel gain of the shading and colour of the glints.
-    hi_map : (H, W, 2) float32
-        Each pixel's coordinates in the sharp horizon panorama; a pixel is water when its row there
-        is below ``water_top_y[int(x)]`` (the sea horizon or the coast's water line).
+    hi_map : (Hb, W, 2) float32
+        Coordinates of image rows ``hi_r0 .. hi_r0 + Hb`` in the sharp horizon panorama; a pixel
+        there is water when its row is below ``water_top_y[int(x)]`` (the sea horizon or the coast's
+        water line); rows below ``hi_r0 + Hb`` are all water.  ``hi_r0 <= r0``.
     water_top_y : (Wp,) float32
     """
     hs = maps.shape[0]
     w = maps.shape[1]
     c = out.shape[2]
+    hb = hi_map.shape[0]
     m = tile.shape[0] - 1
     nwt = water_top_y.shape[0]
     one = np.float32(1.0)
@@ -40,15 +42,17 @@ def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, water_top_y):
         for x in range(w):
             a = maps[yy, x, 2]
             g = maps[yy, x, 3]
-            if a <= 0.0 and g <= 0.0:
+            if a < 0.004 and g < 0.004:  # invisible (< 1 grey level)
                 continue
-            xi = int(hi_map[y, x, 0])
-            if xi < 0:
-                xi = 0
-            elif xi >= nwt:
-                xi = nwt - 1
-            if hi_map[y, x, 1] <= water_top_y[xi]:
-                continue
+            yh = y - hi_r0
+            if yh < hb:
+                xi = int(hi_map[yh, x, 0])
+                if xi < 0:
+                    xi = 0
+                elif xi >= nwt:
+                    xi = nwt - 1
+                if hi_map[yh, x, 1] <= water_top_y[xi]:
+                    continue
             fx = maps[yy, x, 0]
             fy = maps[yy, x, 1]
             ix = int(np.floor(fx))

@@ -117,7 +117,7 @@ def _bgr_tuple(c, n: int):
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_maps", "hi_map", "water_row", "f_px", "sea_cache")
+    __slots__ = ("bg", "sea_r0", "sea_maps", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache")
 
 
 class Renderer:
@@ -299,33 +299,37 @@ class Renderer:
         bg = cv2.remap(pano.lo, mlo, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         bg = cv2.resize(bg, (2 * hw, 2 * hh), interpolation=cv2.INTER_LINEAR)[:H, :W]
         bg = np.ascontiguousarray(bg).reshape(H, W, self.C)
-        # the sharp band around the horizon and the coast, at full resolution
-        hi_map = up(s, (H, W), (hix, hiy))
+        # the sharp band around the horizon and the coast, at full resolution; rows above it hold
+        # neither water nor coast, so the full-resolution maps start at the band (or the water)
         hmax = hiy.max(axis=1)
         hmin = hiy.min(axis=1)
         # pairs of consecutive coarse rows (k, k+1) whose span touches the band
         pair_hi = np.maximum(hmax[:-1], hmax[1:])
         pair_lo = np.minimum(hmin[:-1], hmin[1:])
         rows_c = np.nonzero((pair_hi >= -1) & (pair_lo <= pano.hi.shape[0] + 1))[0]
-        if len(rows_c):
-            b0 = max(0, (int(rows_c[0]) - 1) * s)
-            b1 = min(H, (int(rows_c[-1]) + 1) * s)
+        srows = np.nonzero(hmax > float(self._water_top_y.min()))[0]
+        r0_ = max(0, (int(srows[0]) - 2) * s) if len(srows) else H
+        b0 = max(0, (int(rows_c[0]) - 1) * s) if len(rows_c) else H
+        b1 = min(H, (int(rows_c[-1]) + 1) * s) if len(rows_c) else H
+        m0 = min(r0_, b0)
+        # below the band every pixel is water: the panorama coordinates are needed only down to b1
+        hi_map = up(s, (b1, W), (hix, hiy), m0) if m0 < b1 else np.zeros((0, W, 2), np.float32)
+        if b1 > b0:
             dst = np.ascontiguousarray(bg[b0:b1])
-            band = cv2.remap(pano.hi, np.ascontiguousarray(hi_map[b0:b1]), None, cv2.INTER_LINEAR,
+            band = cv2.remap(pano.hi, np.ascontiguousarray(hi_map[b0 - m0:b1 - m0]), None, cv2.INTER_LINEAR,
                              dst=dst[..., 0] if self.C == 1 else dst, borderMode=cv2.BORDER_TRANSPARENT)
             bg[b0:b1] = band.reshape(dst.shape)
         view.bg = bg
         view.hi_map = hi_map
-        # water rows: those below the highest water top (coarse rows, conservatively)
-        srows = np.nonzero(hmax > float(self._water_top_y.min()))[0]
-        if len(srows):
-            r0_ = max(0, (int(srows[0]) - 2) * s)
+        view.hi_r0 = m0
+        if r0_ < H:
             view.sea_r0 = r0_
             view.sea_maps = up(s, (H, W), (tx, ty, amp, gl), r0_)
         else:
             view.sea_r0 = 0
             view.sea_maps = np.zeros((0, W, 4), np.float32)
-        view.water_row = first_water_rows(hi_map, self._water_top_y).astype(np.float64)
+        wr = first_water_rows(hi_map, self._water_top_y) + m0  # b1 where none in the band rows
+        view.water_row = np.where(wr >= b1, b1 if r0_ < H else H, wr).astype(np.float64)
         return view
 
     # --------------------------------------------------------------------- vessels
@@ -374,7 +378,7 @@ class Renderer:
                 return hit.copy()
         img = view.bg.copy()
         sea_waves(img, view.sea_r0, view.sea_maps, self.waves.frame(t_s), self._gain, self._glint_col,
-                  view.hi_map, self._water_top_y)
+                  view.hi_map, view.hi_r0, self._water_top_y)
         if cache is not None and self._cache_bytes + img.nbytes <= self.sea_cache_mb * 1e6:
             cache[fi] = img.copy()
             self._cache_bytes += img.nbytes
@@ -453,6 +457,9 @@ class Renderer:
         order.sort(reverse=True)  # far first
         # ---- pass 1: wakes and reflections on the water (they never cover a vessel's pixels)
         for dist, k, _, _ in order:
+            sl = slice(bounds[k], bounds[k + 1])
+            if u[sl].max() < -0.5 * W or u[sl].min() > 1.5 * W or v[sl].min() > H:
+                continue  # far outside the view: its wake and reflection cannot show
             if o.wakes:
                 self._draw_wake(img, k, t_s, cam)
             if o.reflections:

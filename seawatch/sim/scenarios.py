@@ -460,13 +460,14 @@ def _pan(seed, width, height, duration_s, fps):
     cam = _camera(width, height, 50.0, 50.7950, -1.1080, 25.0, 140.0, -1.5)
     j = lambda s=1.0: float(rng.uniform(-s, s))
     vs = [
-        make_vessel(1, "cargo", _straight(188 + j(), 2200, 100.0, 3.0), rng, length_m=160.0),
-        make_vessel(2, "fishing", _straight(140 + j(), 700, 60.0, 2.5), rng, length_m=20.0),
-        make_vessel(3, "motorboat", _straight(160 + j(), 450, 250.0, 5.0), rng),
-        make_vessel(4, "sailboat", _straight(175 + j(), 900, 200.0, 2.0), rng),
-        make_vessel(5, "patrol", Trajectory(*_polar(200 + j(), 600), 300.0, ((1e9, 7.0, 2.0),)), rng, ais=False),
-        make_vessel(6, "tanker", _straight(212 + j(), 3200, 270.0, 4.0), rng),
-        make_vessel(7, "rib", _straight(125 + j(), 300, 170.0, 6.0), rng, ais=False),
+        make_vessel(1, "cargo", _straight(188 + j(0.5), 2200, 100.0, 3.0), rng, length_m=160.0),
+        make_vessel(2, "fishing", _straight(141 + j(), 500, 60.0, 2.5), rng, length_m=20.0),
+        make_vessel(3, "motorboat", _straight(155 + j(), 300, 250.0, 5.0), rng),
+        make_vessel(4, "sailboat", _straight(172 + j(), 650, 200.0, 2.0), rng),
+        make_vessel(5, "patrol", Trajectory(*_polar(196 + j(), 450), 300.0, ((1e9, 6.0, 2.0),)), rng, ais=False),
+        make_vessel(6, "tanker", _straight(206 + j(), 3000, 270.0, 4.0), rng),
+        make_vessel(7, "rib", _straight(131 + j(), 220, 170.0, 6.0), rng, ais=False),
+        make_vessel(8, "tug", _straight(165 + j(), 900, 20.0, 2.0), rng),
     ]
     sched = PTZSchedule(
         times_s=(0.0, 5.0, 14.0, 17.0, 23.0, 29.0, 35.0, 40.0),
