@@ -201,6 +201,7 @@ class Fuser:
         self._first_conf: dict[int, float] = {}
         self._last_plausible: dict[int, float] = {}
         self._no_ais_alerted: set[int] = set()
+        self._no_ais_last: dict[int, tuple[float, float, float]] = {}  # flagged track -> (t, e, n) last seen
         self._unseen_since: dict[int, float] = {}
         self._unseen_alerted: set[int] = set()
         self._spoof_since: dict[int, float] = {}
@@ -605,13 +606,20 @@ class Fuser:
         s = self.settings
         out: list[Alert] = []
         g2 = s.gate_sigma ** 2
-        loose = 4.0 * g2  # plausibility gate for "no AIS": twice the association gate
+        loose = 4.0 * g2  # twice the association gate
         confirmed = tracks.states != int(TrackState.TENTATIVE)
         ids = tracks.ids.tolist()
         taken = {int(k) for k in keys.tolist() if k}
         col = {int(k): j for j, k in enumerate(st.keys.tolist())}
-        # targets assigned to a track are not plausible for the others
-        free_cols = np.array([int(k) not in taken for k in st.keys.tolist()], bool)
+        # "no AIS" is claimed only when no AIS vessel could be this one: none within gate_deg of the
+        # box's azimuth extent at a range within a factor range_ratio_max (an identified vessel's
+        # wake or a fragment of its box is not a vessel without AIS)
+        plausible = np.zeros((len(ids), len(st)), bool)
+        if len(st) and len(ids):
+            daz = np.abs(angle_diff_deg(ta.az_deg[:, None], tg.az_deg[None, :])) - ta.half_width_deg[:, None]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                lr = np.abs(np.log(ta.range_m[:, None] / np.maximum(tg.range_m[None, :], 1.0)))
+            plausible = (daz <= s.gate_deg) & ((lr <= math.log(s.no_ais_range_ratio)) | ~np.isfinite(lr))
         for tid in list(self._track_seen):
             if t - self._track_seen[tid] > 60.0:
                 for dct in (self._track_seen, self._first_conf, self._last_plausible, self._history, self._spoof_since):
@@ -660,12 +668,22 @@ class Fuser:
             if hist is not None and hist[1] >= s.min_support_s:
                 # it had an identity: losing it is the spoofing check's business, not "no AIS"
                 continue
-            if len(st) and np.any(free_cols & (d2[i] < loose)):
+            if plausible.shape[1] and plausible[i].any():
                 self._last_plausible[tid] = t
             start = max(self._first_conf[tid], self._last_plausible.get(tid, -np.inf))
             warm = self._ais_since is not None and t_ais - self._ais_since >= s.ais_warmup_s
-            if warm and t - start >= s.no_ais_dwell_s and tid not in self._no_ais_alerted:
+            if tid in self._no_ais_alerted:
+                self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
+                continue
+            # a box a vessel cannot have (e.g. a wave crest right below the camera) is not a vessel
+            length_m = 2.0 * math.radians(ta.half_width_deg[i]) * ta.range_m[i]
+            if length_m < s.min_vessel_length_m:
+                continue
+            if warm and t - start >= s.no_ais_dwell_s:
                 self._no_ais_alerted.add(tid)
+                self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
+                if self._inherits_no_ais(tid, t, float(ta.e_m[i]), float(ta.n_m[i])):
+                    continue  # a new track of a vessel already flagged: no second alert
                 msg = (f"no AIS: camera track {tid} at bearing {ta.az_deg[i]:.1f} deg, range "
                        f"{ta.range_m[i]:.0f} m has no AIS counterpart for {t - start:.0f} s")
                 out.append(self._alert(t, "no_ais", msg, tid, 0, world[i, 0], world[i, 1], ta.az_deg[i]))
@@ -673,6 +691,19 @@ class Fuser:
         if len(st):
             out.extend(self._unseen_alerts(t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed))
         return out
+
+    def _inherits_no_ais(self, tid: int, t: float, e: float, n: float) -> bool:
+        """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked."""
+        for other, (t0, e0, n0) in list(self._no_ais_last.items()):
+            if other == tid:
+                continue
+            gap = t - t0
+            if gap > 60.0:
+                del self._no_ais_last[other]
+                continue
+            if math.hypot(e - e0, n - n0) <= 30.0 + 10.0 * gap:
+                return True
+        return False
 
     def _unseen_alerts(self, t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed) -> list[Alert]:
         s = self.settings
