@@ -86,7 +86,7 @@ class RenderOptions:
     blur_sigma_px: float = 0.0
     ir_polarity: str = "white_hot"
     ir_halo: float = 0.6
-    ir_fixed_pattern: float = 2.0
+    ir_fixed_pattern: float = 1.0
     vessel_motion: bool = True
 
 

@@ -234,7 +234,11 @@ class Scenario:
     def render(self, i: int) -> Frame:
         """Frame ``i`` (``pose`` is the nominal pose, without shake; ``ptz`` the commanded state)."""
         res = self._render(i)
-        return Frame(image=res.image, t_s=self.time_s(i), index=int(i), camera_id=self.camera_id,
+        if res.image is None:  # handed out before (and maybe drawn on by its user): render again
+            self._last = None
+            res = self._render(i)
+        image, res.image = res.image, None
+        return Frame(image=image, t_s=self.time_s(i), index=int(i), camera_id=self.camera_id,
                      modality=self.modality, pose=self.nominal_pose(i), ptz=self.ptz_at(i))
 
     def render_empty(self, i: int) -> np.ndarray:
@@ -615,7 +619,7 @@ class MultiCamScenario:
 
 def make_multicam(seed: int = 0, width: int = 704, height: int = 576, duration_s: float | None = None,
                   fps: float | None = None, n_cameras: int = 3) -> MultiCamScenario:
-    """A bay watched by ``n_cameras`` (default 3) fixed cameras along its shore, about 1.5 km apart.
+    """A bay watched by ``n_cameras`` (default 3) fixed cameras along its shore, about 1.2 km apart.
 
     The cameras look out over a shared sea area from different positions, heights and headings, so
     that most vessels are seen by at least two cameras (for triangulating azimuth/elevation detections).
@@ -626,21 +630,21 @@ def make_multicam(seed: int = 0, width: int = 704, height: int = 576, duration_s
     lat0, lon0 = 50.7000, -1.3000
     j = lambda s=1.0: float(rng.uniform(-s, s))
     vs = [
-        make_vessel(1, "cargo", Trajectory(-2500.0 + 100 * j(), -3000.0, 90.0, ((1e9, 5.0, 0.0),)), rng, length_m=120.0),
-        make_vessel(2, "fishing", Trajectory(-600.0, -1800.0 + 100 * j(), 45.0, ((15.0, 3.0, 0.0), (1e9, 3.0, -2.0))), rng),
-        make_vessel(3, "motorboat", Trajectory(900.0 + 50 * j(), -1200.0, 250.0, ((1e9, 7.0, 0.0),)), rng),
-        make_vessel(4, "sailboat", Trajectory(300.0, -2400.0 + 100 * j(), 300.0, ((1e9, 2.0, 0.0),)), rng),
-        make_vessel(5, "ferry", Trajectory(2500.0, -2200.0 + 100 * j(), 270.0, ((1e9, 7.0, 0.0),)), rng, length_m=60.0),
-        make_vessel(6, "rib", Trajectory(-1200.0, -900.0, 120.0, ((1e9, 9.0, 1.5),)), rng, ais=False),
+        make_vessel(1, "cargo", Trajectory(-1500.0 + 100 * j(), -2200.0, 90.0, ((1e9, 5.0, 0.0),)), rng, length_m=120.0),
+        make_vessel(2, "fishing", Trajectory(-500.0, -1000.0 + 100 * j(), 45.0, ((15.0, 3.0, 0.0), (1e9, 3.0, -2.0))), rng),
+        make_vessel(3, "motorboat", Trajectory(800.0 + 50 * j(), -700.0, 250.0, ((1e9, 7.0, 0.0),)), rng),
+        make_vessel(4, "sailboat", Trajectory(300.0, -1500.0 + 100 * j(), 300.0, ((1e9, 2.0, 0.0),)), rng),
+        make_vessel(5, "ferry", Trajectory(600.0, -1500.0 + 100 * j(), 270.0, ((1e9, 6.0, 0.0),)), rng, length_m=60.0),
+        make_vessel(6, "rib", Trajectory(-900.0, -600.0, 120.0, ((1e9, 9.0, 1.5),)), rng, ais=False),
     ]
     world = World(vs)
     # cameras on the northern shore, spread east-west, looking south
-    spots = [(-1500.0, 0.0, 30.0, 165.0), (0.0, 200.0, 22.0, 180.0), (1500.0, 0.0, 26.0, 200.0),
-             (-3000.0, -500.0, 18.0, 140.0), (3000.0, -500.0, 18.0, 220.0)][:n_cameras]
+    spots = [(-1200.0, 0.0, 30.0, 145.0), (0.0, 150.0, 22.0, 180.0), (1200.0, 0.0, 26.0, 220.0),
+             (-2500.0, -300.0, 18.0, 135.0), (2500.0, -300.0, 18.0, 225.0)][:n_cameras]
     views = []
     for c, (e, n, h, pan) in enumerate(spots):
         lat, lon, _ = pymap3d.enu2geodetic(e, n, 0.0, lat0, lon0, 0.0)
-        cam = _camera(width, height, 60.0, float(lat), float(lon), h, pan, -1.5)
+        cam = _camera(width, height, 70.0, float(lat), float(lon), h, pan, -2.5)
         views.append(Scenario(
             "multicam", world, cam, fps=fps or 10.0, duration_s=duration_s or 40.0, origin=(lat0, lon0),
             sky=SkySpec(sun_az_deg=170.0, sun_el_deg=28.0), seed=seed * 10 + c, camera_id=f"cam{c}",
