@@ -141,6 +141,12 @@ class Renderer:
     world_to_camera : (2, 3) array or None
         Affine map from world (e, n) to this camera's ENU (e, n) (multi-camera worlds); None for
         the identity.
+    wave_field : WaveField or None
+        The animated sea (default: a seeded one).
+    sea_cache_mb : float
+        Memory for caching the animated sea of steady (fixed) views, one image per wave frame.
+    max_roll_deg : float
+        Largest roll the camera will take (widens the panoramas).
     """
 
     def __init__(
@@ -160,7 +166,7 @@ class Renderer:
         seed: int = 0,
         world_to_camera: np.ndarray | None = None,
         wave_field: WaveField | None = None,
-        sea_cache_mb: float = 160.0,
+        sea_cache_mb: float = 256.0,
     ):
         if not (16 <= width <= 8192 and 16 <= height <= 8192):
             raise ValueError(f"Renderer: image size {width}x{height} out of range")
@@ -372,16 +378,21 @@ class Renderer:
             return view.bg.copy()
         fi = self.waves.frame_index(t_s)
         cache = view.sea_cache
+        r0 = view.sea_r0
         if cache is not None:
             hit = cache.get(fi)
-            if hit is not None:
-                return hit.copy()
+            if hit is not None:  # only the rows with water are cached
+                img = np.empty_like(view.bg)
+                img[:r0] = view.bg[:r0]
+                img[r0:] = hit
+                return img
         img = view.bg.copy()
-        sea_waves(img, view.sea_r0, view.sea_maps, self.waves.frame(t_s), self._gain, self._glint_col,
+        sea_waves(img, r0, view.sea_maps, self.waves.frame(t_s), self._gain, self._glint_col,
                   view.hi_map, view.hi_r0, self._water_top_y)
-        if cache is not None and self._cache_bytes + img.nbytes <= self.sea_cache_mb * 1e6:
-            cache[fi] = img.copy()
-            self._cache_bytes += img.nbytes
+        nb = img[r0:].nbytes
+        if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
+            cache[fi] = img[r0:].copy()
+            self._cache_bytes += nb
         return img
 
     def render(self, t_s: float, cam: CameraModel, frame_seed: int = 0, draw_vessels: bool = True) -> RenderResult:
