@@ -1,8 +1,8 @@
 """Synthetic world: rendering speed (frames/s, one core) at 704x576 and 1920x1080.
 
-Every frame of a scenario is rendered in order (single-threaded OpenCV; the Numba kernels are serial), as ``seawatch sim`` / the demo do, and the median
-per-frame time is reported (the mean, which includes the first pass that fills the animated-sea
-cache, beside it).  The in-process peer is a plain ``cv2.GaussianBlur`` (5x5) plus additive
+Every frame of a scenario is rendered in order (single-threaded OpenCV; the Numba kernels are
+serial), as ``seawatch sim`` / the demo do, and the median per-frame time is reported (the mean,
+which includes the first pass that fills the animated-sea cache, beside it).  The in-process peer is a plain ``cv2.GaussianBlur`` (5x5) plus additive
 Gaussian noise of one frame of the same size: the ratio says how many such trivial image
 operations one rendered frame costs.  ``fps_cpu`` uses this process' CPU time instead of wall time,
 which stays meaningful when other jobs share the machine.

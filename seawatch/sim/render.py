@@ -511,9 +511,9 @@ class Renderer:
         y0 = int(math.floor(vv.min())) - 1
         x1 = int(math.ceil(uu.max())) + 2
         y1 = int(math.ceil(vv.max())) + 2
-        if x1 - x0 > 4 * W or y1 - y0 > 4 * H:  # cap the canvas of enormous (very near) vessels
-            x0, x1 = max(x0, -W), min(x1, 2 * W)
-            y0, y1 = max(y0, -H), min(y1, 2 * H)
+        if x1 - x0 > 2 * W or y1 - y0 > 2 * H:  # cap the canvas of enormous (very near) vessels:
+            x0, x1 = max(x0, -W // 2), min(x1, W + W // 2)  # their visible fraction then ignores
+            y0, y1 = max(y0, -H // 2), min(y1, H + H // 2)  # what lies beyond half a frame outside
         cw, ch = x1 - x0, y1 - y0
         if cw <= 0 or ch <= 0:
             return None

@@ -270,7 +270,8 @@ class Scenario:
         ce, cn = enu[:, 0], enu[:, 1]
         if self.world_to_camera is not None:
             A = self.world_to_camera
-            ce, cn = A[0, 0] * enu[:, 0] + A[0, 1] * enu[:, 1] + A[0, 2], A[1, 0] * enu[:, 0] + A[1, 1] * enu[:, 1] + A[1, 2]
+            ce = A[0, 0] * enu[:, 0] + A[0, 1] * enu[:, 1] + A[0, 2]
+            cn = A[1, 0] * enu[:, 0] + A[1, 1] * enu[:, 1] + A[1, 2]
         rng_m = np.hypot(ce, cn)
         az = np.degrees(np.arctan2(ce, cn)) % 360.0
         drop = rng_m ** 2 / (2 * cam.r_eff_m)
@@ -287,7 +288,8 @@ class Scenario:
     def frame_and_truth(self, i: int) -> tuple[Frame, GroundTruth]:
         return self.render(i), self.ground_truth(i)
 
-    def iter_frames(self, start: int = 0, stop: int | None = None, step: int = 1) -> Iterator[tuple[Frame, GroundTruth]]:
+    def iter_frames(self, start: int = 0, stop: int | None = None,
+                    step: int = 1) -> Iterator[tuple[Frame, GroundTruth]]:
         """``(Frame, GroundTruth)`` for frames ``start, start + step, ... < stop``."""
         stop = self.n_frames if stop is None else min(stop, self.n_frames)
         for i in range(start, stop, step):
@@ -312,13 +314,15 @@ class Scenario:
         return self.ais_stream().nmea()
 
     def ais_truth(self) -> np.ndarray:
-        """One row per AIS message: MMSI, vessel id, type, transmit/receive times, true and reported positions, spoof flag."""
+        """One row per AIS message: MMSI, vessel id, type, transmit and receive times, true and reported
+        positions, spoof flag."""
         return self.ais_stream().truth
 
     def _radar_data(self):
         if self._radar is None:
             cfg = self.radar_config or RadarConfig()
-            self._radar = simulate_radar(self.world, self.origin[0], self.origin[1], self.duration_s, cfg, self.ais_seed)
+            self._radar = simulate_radar(self.world, self.origin[0], self.origin[1], self.duration_s, cfg,
+                                         self.ais_seed)
         return self._radar
 
     def radar_plots(self) -> np.ndarray:
@@ -505,7 +509,8 @@ def _crossing(seed, width, height, duration_s, fps):
                         structures=15, seed=seed + 4),)
     return Scenario("crossing", World(vs), cam, fps=fps or 10.0, duration_s=duration_s or 24.0, coasts=coasts,
                     sky=SkySpec(sun_az_deg=120.0, sun_el_deg=30.0), seed=seed,
-                    description="two boats cross in front of a low camera; the near ferry fully hides the far motorboat")
+                    description="two boats cross in front of a low camera; the near ferry fully hides the far "
+                                "motorboat")
 
 
 def _open_sea(seed, width, height, duration_s, fps):
@@ -630,8 +635,10 @@ def make_multicam(seed: int = 0, width: int = 704, height: int = 576, duration_s
     lat0, lon0 = 50.7000, -1.3000
     j = lambda s=1.0: float(rng.uniform(-s, s))
     vs = [
-        make_vessel(1, "cargo", Trajectory(-1500.0 + 100 * j(), -2200.0, 90.0, ((1e9, 5.0, 0.0),)), rng, length_m=120.0),
-        make_vessel(2, "fishing", Trajectory(-500.0, -1000.0 + 100 * j(), 45.0, ((15.0, 3.0, 0.0), (1e9, 3.0, -2.0))), rng),
+        make_vessel(1, "cargo", Trajectory(-1500.0 + 100 * j(), -2200.0, 90.0, ((1e9, 5.0, 0.0),)), rng,
+                    length_m=120.0),
+        make_vessel(2, "fishing", Trajectory(-500.0, -1000.0 + 100 * j(), 45.0,
+                                             ((15.0, 3.0, 0.0), (1e9, 3.0, -2.0))), rng),
         make_vessel(3, "motorboat", Trajectory(800.0 + 50 * j(), -700.0, 250.0, ((1e9, 7.0, 0.0),)), rng),
         make_vessel(4, "sailboat", Trajectory(300.0, -1500.0 + 100 * j(), 300.0, ((1e9, 2.0, 0.0),)), rng),
         make_vessel(5, "ferry", Trajectory(600.0, -1500.0 + 100 * j(), 270.0, ((1e9, 6.0, 0.0),)), rng, length_m=60.0),
