@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 
 __all__ = [
     "FeatureSnapshot",
@@ -80,7 +81,7 @@ def to_grey_u8(image: np.ndarray, low_pct: float = 1.0, high_pct: float = 99.5) 
 
 def select_keypoints(
     xy: np.ndarray, response: np.ndarray, shape: tuple[int, int], max_keypoints: int,
-    grid_cells: tuple[int, int] = (8, 6),
+    grid_cells: tuple[int, int] = (8, 6), priority: np.ndarray | None = None,
 ) -> np.ndarray:
     """Indices of at most ``max_keypoints`` keypoints, spread over the image.
 
@@ -96,6 +97,10 @@ def select_keypoints(
     shape : (height, width) of the image.
     max_keypoints : int, 0 or less keeps all.
     grid_cells : (columns, rows) of the bucketing grid.
+    priority : (N,) bool, optional
+        Keypoints taken first (strongest first), before the grid shares out the rest of the
+        budget: those where an active feature is expected, so that a feature once found keeps
+        being described while the sea's short-lived keypoints compete for the remainder.
 
     Returns
     -------
@@ -106,6 +111,14 @@ def select_keypoints(
     order = np.argsort(-strength, kind="stable")
     if max_keypoints <= 0 or n <= max_keypoints:
         return order
+    if priority is not None and np.any(priority):
+        pri = np.asarray(priority, bool)
+        first = order[pri[order]][:max_keypoints]
+        rest = np.flatnonzero(~pri)
+        if len(first) >= max_keypoints or len(rest) == 0:
+            return first
+        sub = select_keypoints(xy[rest], strength[rest], shape, max_keypoints - len(first), grid_cells)
+        return np.r_[first, rest[sub]]
     gx, gy = max(1, int(grid_cells[0])), max(1, int(grid_cells[1]))
     h, w = shape
     cx = np.clip((xy[:, 0] * gx / max(w, 1)).astype(np.int64), 0, gx - 1)
@@ -341,6 +354,10 @@ class StableFeatureExtractor:
         Refine the positions of matched features to sub-pixel accuracy with Lucas-Kanade (not
         in the paper: CenSurE positions are whole pixels, and that quantisation noise is as
         large as the motion of a slow boat between two frames).
+    prior_radius_px : float
+        Keypoints within this distance (working-image pixels) of where an active feature is
+        expected (its position carried by the previous frame's camera motion) are described
+        first (see :func:`select_keypoints`); 0 turns the priority off.
     work_width_px : int
         Width of the working image: wider frames are downscaled (area averaging) before the
         keypoints are found, described and followed, and the results are scaled back to the
@@ -380,6 +397,7 @@ class StableFeatureExtractor:
         subpixel_max_px: float = 3.0,
         subpixel_min_eig: float = 1e-3,
         work_width_px: int = 0,
+        prior_radius_px: float = 3.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -411,6 +429,7 @@ class StableFeatureExtractor:
         self.subpixel_max_px = float(subpixel_max_px)
         self.subpixel_min_eig = float(subpixel_min_eig)
         self.work_width_px = int(work_width_px)
+        self.prior_radius_px = float(prior_radius_px)
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
             int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
@@ -441,6 +460,7 @@ class StableFeatureExtractor:
         self._shape: tuple[int, int] | None = None
         self._grey_prev: np.ndarray | None = None
         self._scale = 1.0
+        self._h_prev = np.eye(3)
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -474,7 +494,15 @@ class StableFeatureExtractor:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
         xy = np.array([k.pt for k in kps], np.float64)
         resp = np.array([k.response for k in kps], np.float64)
-        keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells)
+        priority = None
+        act = np.flatnonzero(self._alive)
+        if self.prior_radius_px > 0 and len(act) and len(xy) > self.max_keypoints > 0:
+            pred = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
+            pred = pred[np.isfinite(pred).all(axis=1)]
+            if len(pred):
+                d, _ = cKDTree(pred).query(xy, k=1, distance_upper_bound=self.prior_radius_px)
+                priority = np.isfinite(d)
+        keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
         kps = [kps[i] for i in keep]
         kps, desc = self._sift.compute(grey, kps)
         if desc is None or not kps:
@@ -677,6 +705,7 @@ class StableFeatureExtractor:
             self._ivel[s] = np.nan
         self._n += 1
         self._grey_prev = grey
+        self._h_prev = h
         return self._snapshot(t_s, fi, h, dt, len(kxy), len(si), motion_ok, matched_slots=si)
 
     def _snapshot(self, t_s, fi, h, dt, n_kp, n_matched, motion_ok, matched_slots) -> FeatureSnapshot:

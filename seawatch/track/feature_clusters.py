@@ -490,9 +490,17 @@ class StableFeatureTracker:
         self.last_snapshot: FeatureSnapshot | None = None
 
     @classmethod
-    def from_settings(cls, settings) -> "StableFeatureTracker":
+    def from_config(cls, config, *, fps: float | None = None, camera=None) -> "StableFeatureTracker":
+        """Build from a :class:`seawatch.config.Config` (the ``sf_*`` fields of ``[tracker]``)."""
+        return cls.from_settings(config.tracker, fps=fps)
+
+    @classmethod
+    def from_settings(cls, settings, fps: float | None = None) -> "StableFeatureTracker":
         """Build from :class:`seawatch.config.TrackerSettings` (its ``sf_*`` fields)."""
-        ext = StableFeatureExtractor(max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)))
+        ext = StableFeatureExtractor(
+            max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)),
+            nominal_fps=float(fps) if fps and fps > 0 else 25.0,
+        )
         params = ClusterParams(
             dmax=float(getattr(settings, "sf_dmax", 0.31)),
             alpha=float(getattr(settings, "sf_alpha", 3.0)),
