@@ -276,6 +276,15 @@ def test_multicam_views_share_one_world():
     assert mc.ais_reports() == mc.views[1].ais_reports()
 
 
+def test_multicam_write(tmp_path):
+    mc = make_multicam(seed=1, duration_s=0.4, fps=5.0)
+    paths = mc.write(tmp_path / "mc")
+    for cid in ("cam0", "cam1", "cam2"):
+        assert paths[f"{cid}/video"].is_file() and paths[f"{cid}/gt"].is_file()
+    lines = paths["world_truth"].read_text().strip().splitlines()
+    assert len(lines) == mc.n_frames * len(mc.vessels)
+
+
 def test_write_outputs(tmp_path):
     s = make_scenario("crossing", duration_s=1.0, fps=5.0)
     paths = s.write(tmp_path / "out")

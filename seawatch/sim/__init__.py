@@ -34,7 +34,7 @@ API (others code against it)
   radar_tracks.csv, scenario.json.
 * ``mc = make_multicam(seed=0, width=704, height=576, duration_s=None, fps=None, n_cameras=3)``:
   ``mc.views`` (one ``Scenario`` per camera, ``camera_id`` cam0..), ``mc.render(i)`` /
-  ``mc.ground_truth(i)`` (lists), ``mc.world_truth(i)``, ``mc.ais_reports()``.
+  ``mc.ground_truth(i)`` (lists), ``mc.world_truth(i)``, ``mc.ais_reports()``, ``mc.write(dir)``.
 
 Lower level: :mod:`seawatch.sim.world` (vessel types, ``Trajectory``, ``make_vessel``),
 :mod:`seawatch.sim.render` (``Renderer``, ``RenderOptions``), :mod:`seawatch.sim.texture`

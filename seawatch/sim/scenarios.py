@@ -621,6 +621,31 @@ class MultiCamScenario:
     def radar_plots(self) -> np.ndarray:
         return self.views[0].radar_plots()
 
+    def write(self, out_dir) -> dict[str, Path]:
+        """Write every camera's files to ``out_dir/<camera_id>/`` (see :meth:`Scenario.write`) and
+        ``world_truth.jsonl`` (every vessel's state at every frame: frame, t_s, id, mmsi, lat, lon,
+        enu_m, course_deg, speed_mps)."""
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = {}
+        for v in self.views:
+            for key, p in v.write(out / v.camera_id).items():
+                paths[f"{v.camera_id}/{key}"] = p
+        wt_path = out / "world_truth.jsonl"
+        with open(wt_path, "w", encoding="utf-8") as fh:
+            for i in range(self.n_frames):
+                wt = self.world_truth(i)
+                for k in range(len(wt["ids"])):
+                    fh.write(json.dumps({
+                        "frame": i, "t_s": round(self.views[0].time_s(i), 6), "id": int(wt["ids"][k]),
+                        "mmsi": int(wt["mmsi"][k]), "lat": round(float(wt["lat_deg"][k]), 8),
+                        "lon": round(float(wt["lon_deg"][k]), 8),
+                        "enu_m": [round(float(c), 3) for c in wt["enu_m"][k]],
+                        "course_deg": round(float(wt["course_deg"][k]), 3),
+                        "speed_mps": round(float(wt["speed_mps"][k]), 3)}) + "\n")
+        paths["world_truth"] = wt_path
+        return paths
+
 
 def make_multicam(seed: int = 0, width: int = 704, height: int = 576, duration_s: float | None = None,
                   fps: float | None = None, n_cameras: int = 3) -> MultiCamScenario:
