@@ -12,10 +12,13 @@ costs.
 ``ref`` is the paper's figure on 2 cores (its whole system: Haar cascade + PTracking, C++); the
 8-core figure is kept as ``ref_8_cores``.  The default pipeline here is the MOG2 + SORT baseline; the
 paper's own method (cascade + PTracking) is measured too when those stages are installed.
+Each row carries the machine's 1-minute load average: on a shared machine a load above the core
+count makes the 2-thread figures unreliable.
 """
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -142,7 +145,8 @@ def run(ctx) -> None:
                     for det_kind, trk_kind in pipelines:
                         vals = [_pipeline_fps(frames, det_kind, trk_kind, FPS, out) for _ in range(repeats)]
                         v = float(np.median(vals))
-                        extra = dict(threads=nt, frames=len(frames), repeats=repeats, peer_fps=peer)
+                        extra = dict(threads=nt, frames=len(frames), repeats=repeats, peer_fps=peer,
+                                     load_avg_1min=round(os.getloadavg()[0], 2), cpu_count=os.cpu_count())
                         if nt == 2 and (w, h) in REF_2_CORES:
                             extra["ref"] = REF_2_CORES[(w, h)]
                             extra["ref_8_cores"] = REF_8_CORES[(w, h)]

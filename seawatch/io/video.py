@@ -459,6 +459,9 @@ class StreamSource(FrameSource):
             fps = src_fps if src_fps and math.isfinite(src_fps) and 0 < src_fps < 1000 else DEFAULT_FPS
         super().__init__(str(url), fps, **kwargs)
         self._cap = cap
+        w, h = cap.get(cv2.CAP_PROP_FRAME_WIDTH), cap.get(cv2.CAP_PROP_FRAME_HEIGHT)
+        if w and h and math.isfinite(w) and math.isfinite(h):
+            self.width, self.height = int(w), int(h)
 
     def _reopen(self, url: str, cap, first: bool = False):
         if cap is not None:
