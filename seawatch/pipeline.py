@@ -45,6 +45,7 @@ __all__ = [
     "build_detector",
     "build_tracker",
     "build_fuser",
+    "check_settings",
     "open_ais",
     "AISInput",
     "make_sinks",
@@ -131,14 +132,43 @@ def _construct(cls, config: Config, fps: float, camera):
     return cls.from_config(config, **kwargs)
 
 
+def _build(kind: str, registry: dict[str, str], what: str, config: Config, fps: float, camera):
+    cls = _resolve(kind, registry, what)
+    try:
+        return _construct(cls, config, fps, camera)
+    except (ValueError, TypeError) as exc:  # a setting the stage rejects: name the stage
+        raise ConfigError(f"[{what}] kind '{kind}': {exc}") from None
+
+
 def build_detector(config: Config, fps: float, camera=None):
     """The detector (or DetectorTracker) named by ``config.detector.kind``."""
-    return _construct(_resolve(config.detector.kind, DETECTORS, "detector"), config, fps, camera)
+    return _build(config.detector.kind, DETECTORS, "detector", config, fps, camera)
 
 
 def build_tracker(config: Config, fps: float, camera=None):
     """The tracker named by ``config.tracker.kind``."""
-    return _construct(_resolve(config.tracker.kind, TRACKERS, "tracker"), config, fps, camera)
+    return _build(config.tracker.kind, TRACKERS, "tracker", config, fps, camera)
+
+
+def check_settings(config: Config) -> None:
+    """Reject values of the ``[run]`` and ``[output]`` settings that cannot work.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key and the allowed values.
+    """
+    r, o = config.run, config.output
+    if r.modality not in ("EO", "IR"):
+        raise ConfigError(f"[run] key 'modality': expected 'EO' or 'IR', got {r.modality!r}")
+    if r.fps < 0:
+        raise ConfigError(f"[run] key 'fps': expected >= 0 (0: the source's), got {r.fps}")
+    if r.max_frames < 0:
+        raise ConfigError(f"[run] key 'max_frames': expected >= 0 (0: all), got {r.max_frames}")
+    if r.max_bad_frames_in_row < 1:
+        raise ConfigError(f"[run] key 'max_bad_frames_in_row': expected >= 1, got {r.max_bad_frames_in_row}")
+    if len(o.video_codec) != 4:
+        raise ConfigError(f"[output] key 'video_codec': expected a 4-character FourCC such as 'mp4v', got {o.video_codec!r}")
 
 
 @dataclass
@@ -420,6 +450,7 @@ def run_pipeline(
     from seawatch.io.video import FrameSource, load_camera_file, open_source, read_ptz_csv
 
     config = config or Config()
+    check_settings(config)
     r = config.run
     if camera is not None and isinstance(camera, (str, Path)):
         camera = load_camera_file(camera)

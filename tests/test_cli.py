@@ -234,3 +234,14 @@ def test_run_on_a_simulated_scenario_with_camera_ptz_and_ais(tmp_path, capsys):
     assert s["frames_processed"] == s["frames_read"] > 0
     assert s["ptz_states"] > 0 and s["ais"]["reports"] > 0
     assert s["rejected_inputs"]["ptz_rows"] == 0
+
+
+@pytest.mark.parametrize("setting, key", [
+    ("run.modality=UV", "modality"), ("run.fps=-1", "fps"), ("output.video_codec=h264x", "video_codec"),
+    ("tracker.confirm_hits=0", "confirm_hits"), ("detector.mog2_history_s=-3", "history_s"),
+])
+def test_invalid_setting_values_fail_naming_the_key(tmp_path, video, capsys, setting, key):
+    rc = main(["run", str(video), "--set", setting, "--out", str(tmp_path / "o"), "--quiet"])
+    assert rc == EXIT_FAIL
+    err = _err(capsys)
+    assert key in err and "Traceback" not in err
