@@ -485,7 +485,12 @@ def _run_opened(src, config, out_dir, camera, ptz, ais, progress, total, on_step
         tracker = build_tracker(config, src.fps, camera)
     ais_in = open_ais(ais)
     fuser = build_fuser(config, ais_in, camera, src.fps, notes)
-    sinks, paths = make_sinks(out_dir, config, src.fps, with_alerts=fuser is not None)
+    try:
+        sinks, paths = make_sinks(out_dir, config, src.fps, with_alerts=fuser is not None)
+    except OSError as exc:
+        if ais_in is not None:
+            ais_in.close()
+        raise PipelineError(f"output folder {out_dir}: cannot write: {exc.strerror or exc}") from None
     pipe = Pipeline(detector, tracker, fuser=fuser, sinks=sinks, camera=camera, catch_errors=src.is_live)
     if total is None and getattr(src, "declared_frames", 0):
         total = src.declared_frames

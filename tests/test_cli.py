@@ -245,3 +245,11 @@ def test_invalid_setting_values_fail_naming_the_key(tmp_path, video, capsys, set
     assert rc == EXIT_FAIL
     err = _err(capsys)
     assert key in err and "Traceback" not in err
+
+
+def test_unwritable_output_folder_fails_naming_it(tmp_path, video, capsys):
+    blocker = tmp_path / "taken"
+    blocker.write_text("a file where the output folder should go")
+    assert main(["run", str(video), "--out", str(blocker), "--quiet"]) == EXIT_FAIL
+    err = _err(capsys)
+    assert "output folder" in err and "taken" in err and "Traceback" not in err
