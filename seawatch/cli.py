@@ -211,9 +211,11 @@ def _cmd_demo(args) -> int:  # owner: pipeline
     scn = make_scenario(args.scenario, seed=args.seed)
     n = min(args.frames, scn.n_frames) if args.frames else scn.n_frames
     out = args.out
-    out.mkdir(parents=True, exist_ok=True)
     scene_dir = out / "scene"
-    scene_dir.mkdir(exist_ok=True)
+    try:
+        scene_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CLIError(f"output folder {out}: cannot write: {exc.strerror or exc}") from None
     # the scene's inputs beside the outputs: AIS as NMEA, the camera, the ground truth
     try:
         from seawatch.camera import save_camera
