@@ -43,6 +43,8 @@ class DetectorSettings:
     mog2_var_threshold: float = 64.0
     mog2_learning_rate: float = -1.0
     mog2_background_ratio: float = 0.7  # OpenCV's backgroundRatio (0.9 absorbs slow hulls in ~2 s)
+    mog2_warmup_s: float = 1.0  # nothing reported while the background model first learns
+    mog2_work_width_px: int = 0  # run MOG2 on a downscaled image this wide (0: native size)
     min_area_px: float = 30.0
     max_area_frac: float = 0.25
     # cascade (paper A)

@@ -93,3 +93,14 @@ def test_rejects_bad_parameters():
         Mog2Detector(0.0)
     with pytest.raises(ValueError, match="history_s"):
         Mog2Detector(10.0, history_s=0)
+
+
+def test_from_config_work_width_and_warmup():
+    cfg = load_config(None, ["detector.mog2_work_width_px=160", "detector.mog2_warmup_s=0.5",
+                             "detector.mog2_background_ratio=0.8"])
+    det = Mog2Detector.from_config(cfg, fps=10.0)
+    assert det.work_width_px == 160 and det.warmup_s == 0.5 and det.background_ratio == 0.8
+    frames, _ = moving_boxes(8, seed=6)
+    dets = _run(det, frames)
+    assert det._model.getBackgroundRatio() == pytest.approx(0.8)
+    assert all(len(d) == 0 for d in dets[:5])  # 0.5 s at 10 fps
