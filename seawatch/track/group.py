@@ -47,11 +47,14 @@ class Group:
     histograms : dict id -> (sum(HSV_BINS),) colour model saved when the group formed (None when
         no image was available).
     formed_t_s : time the group formed.
+    anchors : dict id -> (position, velocity, size, t_s) of each member when it joined: a
+        member that is not observed coasts from there (its box is not shrunk by the occlusion).
     """
 
     members: list[int]
     histograms: dict[int, np.ndarray | None] = field(default_factory=dict)
     formed_t_s: float = 0.0
+    anchors: dict[int, tuple] = field(default_factory=dict)
 
 
 def shrink_boxes(boxes, factor: float = 0.8) -> np.ndarray:

@@ -38,8 +38,9 @@ def predict_particles(points, velocities, dt_s: float, jitter_px: float, rng: np
         Velocity of each particle (its track's), units per second.
     dt_s : float
         Time step in seconds (>= 0).
-    jitter_px : float
-        Standard deviation of the Gaussian jitter added to each coordinate.
+    jitter_px : float or (N,) array_like
+        Standard deviation of the Gaussian jitter added to each coordinate (one for all
+        particles, or one per particle).
     rng : numpy.random.Generator
 
     Returns
@@ -48,8 +49,9 @@ def predict_particles(points, velocities, dt_s: float, jitter_px: float, rng: np
     """
     p = np.asarray(points, dtype=np.float64)
     out = p + np.asarray(velocities, dtype=np.float64) * float(dt_s)
-    if jitter_px > 0 and len(p):
-        out += rng.standard_normal(p.shape) * float(jitter_px)
+    jit = np.asarray(jitter_px, dtype=np.float64)
+    if len(p) and np.any(jit > 0):
+        out += rng.standard_normal(p.shape) * (jit[:, None] if jit.ndim == 1 else jit)
     return out
 
 
@@ -62,32 +64,36 @@ def _kernel_likelihood(points, obs, sigma):
     for i in range(n):
         s = 0.0
         for j in range(m):
-            dx = points[i, 0] - obs[j, 0]
-            dy = points[i, 1] - obs[j, 1]
-            s += np.exp(-np.sqrt(dx * dx + dy * dy) * inv)
+            dx = (points[i, 0] - obs[j, 0]) * inv[j, 0]
+            dy = (points[i, 1] - obs[j, 1]) * inv[j, 1]
+            s += np.exp(-np.sqrt(dx * dx + dy * dy))
         w[i] = s
     return w
 
 
-def kernel_likelihood(points, observations, sigma_px: float) -> np.ndarray:
-    """Weights ``w_i = sum_j exp(-|p_i - z_j| / sigma_px)`` of particles given observations.
+def kernel_likelihood(points, observations, sigma_px) -> np.ndarray:
+    """Weights ``w_i = sum_j exp(-|(p_i - z_j) / sigma_j|)`` of particles given observations.
 
     Parameters
     ----------
     points : (N, 2) array_like
     observations : (M, 2) array_like
-    sigma_px : float
-        Kernel scale (same unit as the points).
+    sigma_px : float, (M,) or (M, 2) array_like
+        Kernel scale (same unit as the points): one for all observations, one per observation,
+        or one per observation and axis (an elliptical kernel).
 
     Returns
     -------
     (N,) float64, unnormalised weights in ``[0, M]`` (all zero when there is no observation).
     """
-    if not sigma_px > 0:
-        raise ValueError(f"kernel_likelihood: sigma_px must be positive, got {sigma_px}")
     p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 2))
     z = np.ascontiguousarray(np.asarray(observations, dtype=np.float64).reshape(-1, 2))
-    return _kernel_likelihood(p, z, float(sigma_px))
+    sig = np.asarray(sigma_px, dtype=np.float64)
+    sig = sig.reshape(-1, 1) if sig.ndim == 1 else sig
+    sig = np.ascontiguousarray(np.broadcast_to(sig, (len(z), 2)))
+    if not np.all(sig > 0):
+        raise ValueError(f"kernel_likelihood: sigma_px must be positive, got {sigma_px}")
+    return _kernel_likelihood(p, z, sig)
 
 
 @njit(cache=True)

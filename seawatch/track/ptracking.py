@@ -50,7 +50,7 @@ from seawatch.track.group import (
     match_by_colour,
     overlap_components,
 )
-from seawatch.track.kclusterize import kclusterize
+from seawatch.track.kclusterize import Clusters, kclusterize
 from seawatch.track.particle import (
     kernel_likelihood,
     predict_particles,
@@ -99,6 +99,8 @@ class _Bank:
         "confirmed": (np.bool_, ()),
         "updated": (np.bool_, ()),  # updated in this frame
         "reg": (np.float64, (7,)),  # S_w, S_t, S_tt, S_x, S_y, S_tx, S_ty (time origin = now)
+        "srate": (np.float64, (2,)),  # box size rate (w, h), px/s: a constant-rate Kalman filter ...
+        "sP": (np.float64, (2, 3)),  # ... with covariance (p_ss, p_sr, p_rr) per axis
         "hist": (np.float64, (_NB,)),  # clean colour model
         "has_hist": (np.bool_, ()),
         "hist_t": (np.float64, ()),
@@ -252,6 +254,13 @@ class PTrackingTracker:
         camera=None,
         image_width_px: float = 0.0,
         output_tentative: bool = False,
+        prior_estimate: bool = True,
+        kernel_frac: float = 0.08,
+        size_accel_frac: float = 0.5,
+        size_meas_frac: float = 0.04,
+        size_rate0_frac: float = 0.5,
+        group_update: bool = True,
+        process_noise_frac: float = 0.5,
         seed: int = 0,
     ) -> None:
         if num_particles < 10:
@@ -296,6 +305,13 @@ class PTrackingTracker:
         self.camera = camera
         self.image_width_px = float(image_width_px)
         self.output_tentative = bool(output_tentative)
+        self.prior_estimate = bool(prior_estimate)
+        self.kernel_frac = float(kernel_frac)
+        self.size_accel_frac = float(size_accel_frac)
+        self.size_meas_frac = float(size_meas_frac)
+        self.size_rate0_frac = float(size_rate0_frac)
+        self.group_update = bool(group_update)
+        self.process_noise_frac = float(process_noise_frac)
         self.seed = int(seed)
         self.reset()
 
@@ -408,14 +424,20 @@ class PTrackingTracker:
             stx = bk.reg[:, 5:7] @ A.T + bk.reg[:, 1:2] * b
             bk.reg[:, 3:5] = sx
             bk.reg[:, 5:7] = stx
+            bk.srate = bk.srate * s
+            bk.sP = bk.sP * np.array([s * s, s * s, s * s])
         for lt in self.lost:
             lt["pos"] = lt["pos"] @ A.T + b
             lt["vel"] = lt["vel"] @ A.T
             lt["size"] = lt["size"] * s
 
     # ------------------------------------------------------------------ regression
-    def _advance_regression(self, dt: float) -> None:
-        r = self.bank.reg
+    @staticmethod
+    def _advance(r: np.ndarray, dt: float, tau: float) -> None:
+        """Move a regression's time origin forward by ``dt`` and age its samples (in place).
+
+        Columns: S_w, S_t, S_tt, S_a, S_b, S_ta, S_tb, exponentially weighted (time constant
+        ``tau``) sums over the samples of the two fitted quantities a, b."""
         if len(r) == 0 or dt <= 0:
             return
         sw, st, stt = r[:, 0].copy(), r[:, 1].copy(), r[:, 2].copy()
@@ -423,7 +445,54 @@ class PTrackingTracker:
         r[:, 2] = stt - 2 * dt * st + dt * dt * sw
         r[:, 5] = r[:, 5] - dt * r[:, 3]
         r[:, 6] = r[:, 6] - dt * r[:, 4]
-        r *= math.exp(-dt / self.velocity_tau_s) if self.velocity_tau_s > 0 else 0.0
+        r *= math.exp(-dt / tau) if tau > 0 else 0.0
+
+    def _advance_regression(self, dt: float) -> None:
+        self._advance(self.bank.reg, dt, self.velocity_tau_s)
+        # box size: constant-rate Kalman prediction (white-noise size acceleration)
+        bk = self.bank
+        q = (self.size_accel_frac * bk.size) ** 2  # (T, 2)
+        p = bk.sP
+        p00, p01, p11 = p[:, :, 0], p[:, :, 1], p[:, :, 2]
+        n00 = p00 + 2 * dt * p01 + dt * dt * p11 + q * dt ** 4 / 4
+        n01 = p01 + dt * p11 + q * dt ** 3 / 2
+        n11 = p11 + q * dt * dt
+        bk.sP = np.stack([n00, n01, n11], axis=2)
+        bk.size = np.maximum(bk.size + bk.srate * dt, 1.0)
+
+    def _update_size(self, rows: np.ndarray, z: np.ndarray, fresh: np.ndarray) -> None:
+        """Kalman update of the box size of tracks ``rows`` with measured sizes ``z``."""
+        bk = self.bank
+        r = (self.size_meas_frac * np.maximum(z, 1.0)) ** 2
+        p = bk.sP[rows]
+        p00, p01, p11 = p[:, :, 0], p[:, :, 1], p[:, :, 2]
+        S = p00 + r
+        k0, k1 = p00 / S, p01 / S
+        y = z - bk.size[rows]
+        size = bk.size[rows] + k0 * y
+        rate = bk.srate[rows] + k1 * y
+        newp = np.stack([(1 - k0) * p00, (1 - k0) * p01, p11 - k1 * p01], axis=2)
+        # a new track starts from its measurement, its rate unknown
+        init = np.stack([r, np.zeros_like(r), (self.size_rate0_frac * z) ** 2], axis=2)
+        f = fresh[:, None]
+        bk.size[rows] = np.maximum(np.where(f, z, size), 1.0)
+        bk.srate[rows] = np.where(f, 0.0, rate)
+        bk.sP[rows] = np.where(f[:, :, None], init, newp)
+
+    @staticmethod
+    def _fit_now(r: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Slope and value at the time origin (now) of a regression; ``fallback`` (value) and a
+        zero slope where it has too few samples."""
+        den = r[:, 0] * r[:, 2] - r[:, 1] ** 2
+        ok = den > 1e-9 * np.maximum(r[:, 0] ** 2, 1e-300)
+        slope = np.zeros((len(r), 2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope[:, 0] = (r[:, 0] * r[:, 5] - r[:, 1] * r[:, 3]) / den
+            slope[:, 1] = (r[:, 0] * r[:, 6] - r[:, 1] * r[:, 4]) / den
+            value = (r[:, 3:5] - slope * r[:, 1:2]) / r[:, 0:1]
+        slope = np.where(ok[:, None], slope, 0.0)
+        value = np.where(ok[:, None], value, fallback)
+        return slope, value
 
     def _velocity_sigma(self, r: int) -> float:
         """Standard deviation of track ``r``'s velocity (px/s), from its regression's time spread."""
@@ -493,22 +562,30 @@ class PTrackingTracker:
         bk.updated[:] = False
         if len(self.particles):
             rows = bk.rows_of(self.labels)
-            vp = np.where(rows[:, None] >= 0, bk.vel[np.maximum(rows, 0)] if len(bk) else 0.0, 0.0)
-            jitter = max(self._px(self.process_noise_px_s) * dt, 0.5 * self._scale)
+            safe = np.maximum(rows, 0)
+            vp = np.where(rows[:, None] >= 0, bk.vel[safe] if len(bk) else 0.0, 0.0)
+            # jitter: a random walk whose speed scales with the vessel's size in the image
+            spd = self._px(self.process_noise_px_s)
+            if len(bk):
+                spd = np.where(rows >= 0, np.clip(self.process_noise_frac * np.sqrt(np.prod(bk.size[safe], 1)),
+                                                  self._px(2.0), spd), spd)
+            jitter = np.maximum(spd * dt, 0.3 * self._scale)
             self.particles = predict_particles(self.particles, vp, dt, jitter, self.rng)
 
         # 2. draw particles around the observations, 3. weigh every particle
         n_inj_total = int(round(self.inject_frac * self.num_particles))
         per_obs = max(2 * self._min_size(), n_inj_total // max(m, 1)) if m else 0
-        inj, comp = sample_gaussians(z, self._px(self.inject_sigma_px), np.full(m, per_obs), self.rng)
+        # kernel scale and spread per observation: a fraction of the box size, within bounds
+        osig = np.clip(self.kernel_frac * boxes[:, 2:4], self._px(0.5), self._px(self.kernel_sigma_px))
+        inj, comp = sample_gaussians(z, np.minimum(osig, self._px(self.inject_sigma_px)),
+                                     np.full(m, per_obs), self.rng)
         P = np.vstack([self.particles, inj]) if len(inj) else self.particles
         lab = np.concatenate([self.labels, np.full(len(inj), -1, np.int64)])
-        src = np.concatenate([np.full(len(self.particles), -1, np.int64), comp])
-        ksig = self._px(self.kernel_sigma_px)
-        w = kernel_likelihood(P, z, ksig) if m else np.zeros(len(P))
+        w = kernel_likelihood(P, z, osig) if m else np.zeros(len(P))
+        self._osig = osig
 
         # 4. KClusterize
-        cl = kclusterize(P, w, delta, min_seed_weight=math.exp(-delta / ksig), min_size=self._min_size())
+        cl = kclusterize(P, w, delta, min_seed_weight=math.exp(-3.0), min_size=self._min_size())
         K = len(cl)
         # each observation's cluster: where most of its drawn particles went
         obs_cluster = np.full(m, -1, np.int64)
@@ -519,6 +596,8 @@ class PTrackingTracker:
             np.add.at(tab, (comp[okp], sel[okp]), 1)
             has = tab.max(axis=1) > 0
             obs_cluster = np.where(has, tab.argmax(axis=1), -1)
+            cl, obs_cluster = self._split_by_observation(P, w, cl, z, osig, obs_cluster)
+            K = len(cl)
         # each supported cluster's representative observation (the one nearest its mean)
         c_obs = np.full(K, -1, np.int64)
         if m and K:
@@ -530,11 +609,12 @@ class PTrackingTracker:
         c_size = np.zeros((K, 2))
         c_size[supported] = boxes[c_obs[supported], 2:4]
         c_pos = cl.means
+        self._prior_table(cl, w, K)
         c_track = np.full(K, -1, np.int64)  # row of the track each cluster went to
         consumed = np.zeros(K, bool)  # taken by a group
 
         # 5. groups
-        self._process_groups(t, cl, supported, c_pos, c_size, c_track, consumed)
+        self._process_groups(t, cl, z, boxes[:, 2:4], obs_cluster, c_track, consumed)
 
         # 6. associate the remaining clusters with the non-grouped tracks
         free_tr = np.flatnonzero((bk.group < 0) & ~bk.updated)
@@ -546,7 +626,8 @@ class PTrackingTracker:
             ri, ci = linear_sum_assignment(cost)
             ok = cost[ri, ci] < 1e9
             rows, cls_ = free_tr[ri[ok]], free_cl[ci[ok]]
-            self._update_tracks(rows, c_pos[cls_], c_size[cls_], cl.sigmas[cls_], cl.weights[cls_], t, dt)
+            self._update_tracks(rows, self._estimate(rows, cls_, c_pos), c_size[cls_], cl.sigmas[cls_],
+                                cl.weights[cls_], t, dt)
             c_track[cls_] = rows
 
         # 7. births
@@ -611,6 +692,96 @@ class PTrackingTracker:
         """The confirmation window, widened to 1.5 frame intervals per needed sighting at low rates."""
         return max(self.confirm_window_s, 1.5 * (self.confirm_hits - 1) * self._dt)
 
+    @staticmethod
+    def _split_by_observation(P, w, cl, z, osig, obs_cluster):
+        """A cluster holding several observations is split between them (each particle goes to the
+        observation nearest in kernel units), so that every cluster holds at most one observation.
+
+        KClusterize's radius is fixed, and vessels whose waterlines are closer than it (two small
+        boats, or a small boat in front of a large one) share a cluster; their observations are
+        distinct, and so must their estimates be."""
+        K = len(cl)
+        j_all = np.flatnonzero(obs_cluster >= 0)
+        n_obs = np.bincount(obs_cluster[j_all], minlength=K)
+        if K == 0 or n_obs.max(initial=0) < 2:
+            return cl, obs_cluster
+        labels = cl.labels.copy()
+        obs_cluster = obs_cluster.copy()
+        new_k = K
+        for c in np.flatnonzero(n_obs >= 2):  # rare: a few per frame at most
+            js = j_all[obs_cluster[j_all] == c]
+            idx = np.flatnonzero(labels == c)
+            d = np.linalg.norm((P[idx][:, None, :] - z[js][None, :, :]) / osig[js][None, :, :], axis=2)
+            near = np.argmin(d, axis=1)
+            for k, j in enumerate(js[1:], start=1):
+                labels[idx[near == k]] = new_k
+                obs_cluster[j] = new_k
+                new_k += 1
+        ok = labels >= 0
+        lab = labels[ok]
+        ww = w[ok]
+        pts = P[ok]
+        mass = np.bincount(lab, ww, new_k)
+        cnt = np.bincount(lab, None, new_k).astype(np.int64)
+        den = np.where(mass > 0, mass, np.maximum(cnt, 1))
+        wu = np.where(mass[lab] > 0, ww, 1.0)
+        means = np.column_stack([np.bincount(lab, wu * pts[:, 0], new_k), np.bincount(lab, wu * pts[:, 1], new_k)])
+        means /= den[:, None]
+        dev = (pts - means[lab]) ** 2
+        sig = np.sqrt(np.column_stack([np.bincount(lab, wu * dev[:, 0], new_k),
+                                       np.bincount(lab, wu * dev[:, 1], new_k)]) / den[:, None])
+        tot = mass.sum()
+        out = Clusters(labels, mass / tot if tot > 0 else np.zeros(new_k), means, sig, cnt, mass)
+        # a split-off piece with no particle (every particle nearer another observation) keeps
+        # its observation as its mean
+        empty = cnt == 0
+        if empty.any():
+            for j in np.flatnonzero(np.isin(obs_cluster, np.flatnonzero(empty))):
+                out.means[obs_cluster[j]] = z[j]
+        return out, obs_cluster
+
+    def _prior_table(self, cl, w, K) -> None:
+        """Per (cluster, track): likelihood-weighted sums of the track's predicted particles."""
+        n_old = len(self.particles)
+        T = len(self.bank)
+        self._tab = np.zeros((4, max(K, 1), max(T, 1)))
+        self._c_sir = np.zeros(K, bool)
+        if n_old == 0 or K == 0 or T == 0:
+            return
+        prow = self.bank.rows_of(self.labels)
+        lab = cl.labels[:n_old]
+        ok = (prow >= 0) & (lab >= 0)
+        key = lab[ok] * T + prow[ok]
+        ww = w[:n_old][ok]
+        pts = self.particles[ok]
+        size = K * T
+        self._tab[0] = np.bincount(key, ww, size).reshape(K, T)
+        self._tab[1] = np.bincount(key, ww * pts[:, 0], size).reshape(K, T)
+        self._tab[2] = np.bincount(key, ww * pts[:, 1], size).reshape(K, T)
+        self._tab[3] = np.bincount(key, None, size).reshape(K, T)
+
+    def _estimate(self, rows, cls, c_pos) -> np.ndarray:
+        """Position of each track ``rows[i]`` given cluster ``cls[i]``: the likelihood-weighted
+        mean of its own predicted particles in the cluster (the particle filter's posterior mean),
+        or the cluster mean when it has none there (a new or re-acquired track)."""
+        rows = np.asarray(rows, np.int64)
+        cls = np.asarray(cls, np.int64)
+        out = c_pos[cls].copy()
+        if not self.prior_estimate or len(rows) == 0:
+            return out
+        tab = self._tab
+        ok = (rows < tab.shape[2]) & (cls < tab.shape[1])
+        r, c = rows[ok], cls[ok]
+        m = tab[0, c, r]
+        # the track's own particles must reach the observation (mean weight above e^-3),
+        # else it is re-acquired from the particles drawn around the observation
+        good = m > math.exp(-3.0) * np.maximum(tab[3, c, r], 1.0)
+        idx = np.flatnonzero(ok)[good]
+        self._c_sir[c[good]] = True
+        out[idx, 0] = tab[1, c[good], r[good]] / m[good]
+        out[idx, 1] = tab[2, c[good], r[good]] / m[good]
+        return out
+
     def _update_tracks(self, rows, pos, size, sigma, weight, t, dt) -> None:
         """Update tracks ``rows`` with cluster estimates."""
         bk = self.bank
@@ -622,9 +793,7 @@ class PTrackingTracker:
         bk.resid_var[rows] = np.where(fresh, (self._px(self.inject_sigma_px)) ** 2,
                                       (1 - a) * bk.resid_var[rows] + a * innov)
         bk.pos[rows] = pos
-        beta = 1.0 - math.exp(-dt / self.size_tau_s) if self.size_tau_s > 0 and dt > 0 else 1.0
-        b = np.where(fresh, 1.0, beta)[:, None]
-        bk.size[rows] = bk.size[rows] + b * (size - bk.size[rows])
+        self._update_size(rows, size, fresh)
         bk.sigma[rows] = sigma
         bk.weight[rows] = weight
         reg = bk.reg[rows]
@@ -737,9 +906,27 @@ class PTrackingTracker:
             hist=bk.hist[r].copy() if bk.has_hist[r] else None,
         ))
 
-    def _process_groups(self, t, cl, supported, c_pos, c_size, c_track, consumed) -> None:
-        """Groups: consume the clusters in their region; update or coast the members; dissolve."""
+    def _process_groups(self, t, cl, z, osize, obs_cluster, c_track, consumed) -> None:
+        """Groups: take the observations in their region; update or coast the members; dissolve.
+
+        Works on the observations themselves rather than on clusters: the members of a group are
+        close, so their observations often fall in one cluster."""
         bk = self.bank
+        if not self.groups:
+            return
+        m = len(z)
+        o_taken = np.zeros(m, bool)
+        # the track each observation is nearest to, in box sizes: a going-on group only looks at
+        # the observations nearest to one of its members
+        if len(bk) and m:
+            msize = np.maximum(bk.size, self._px(self.delta_px) / 4)
+            nd = np.linalg.norm((z[:, None, :] - bk.pos[None, :, :]) / msize[None, :, :], axis=2)
+            owner = np.argmin(nd, axis=1)
+            owner_d = nd[np.arange(m), owner]
+        else:
+            owner = np.zeros(m, np.int64)
+            owner_d = np.full(m, np.inf)
+        cc = np.maximum(obs_cluster, 0)
         for gi, g in enumerate(self.groups):
             rows = bk.rows_of(np.asarray(g.members, np.int64))
             rows = rows[rows >= 0]
@@ -751,60 +938,135 @@ class PTrackingTracker:
             x1, y1 = boxes[:, 0].min(), boxes[:, 1].min()
             x2, y2 = (boxes[:, 0] + boxes[:, 2]).max(), (boxes[:, 1] + boxes[:, 3]).max()
             pad = self._px(self.delta_px)
-            inside = (supported & ~consumed & (c_track < 0)
-                      & (c_pos[:, 0] >= x1 - pad) & (c_pos[:, 0] <= x2 + pad)
-                      & (c_pos[:, 1] >= y1 - pad) & (c_pos[:, 1] <= y2 + pad))
+            free = ~o_taken
+            if len(c_track):
+                free &= (obs_cluster < 0) | (~consumed[cc] & (c_track[cc] < 0))
+            inside = free & (z[:, 0] >= x1 - pad) & (z[:, 0] <= x2 + pad) & (z[:, 1] >= y1 - pad) \
+                & (z[:, 1] <= y2 + pad)
             cand = np.flatnonzero(inside)
             comps = overlap_components(boxes, self.group_shrink)
             still = comps.max() == 0 and t - g.formed_t_s <= self.group_max_s
             if still:
-                # as many observations as members, each matching one: update them all, the
-                # group goes on; fewer (an occlusion): the members coast on their velocities
-                if len(cand) >= len(rows):
-                    pairs = self._match_members(g, rows, cand, c_pos, c_size)
-                    if len(pairs) == len(rows):
-                        self._take(pairs, rows, cand, cl, c_pos, c_size, c_track, t)
-                consumed |= inside
+                mine = cand[np.isin(owner[cand], rows)]
+                pairs = []
+                if self.group_update and len(mine):
+                    # as many observations as members: only "which is which" is asked, so the
+                    # colour is compared relatively (no absolute threshold); fewer: a member is
+                    # updated only by a colour match
+                    pairs = self._match_members(g, rows, z[mine], osize[mine],
+                                                mode="equal" if len(mine) == len(rows) else "fewer")
+                    self._take(pairs, rows, mine, z, osize, obs_cluster, cl, c_track, t)
+                seen = {i for i, _ in pairs}
+                for k, r in enumerate(rows):  # the others coast from where they joined the group
+                    a = g.anchors.get(int(bk.uid[r]))
+                    if k not in seen and a is not None:
+                        bk.pos[r] = a[0] + a[1] * (t - a[3])
+                        bk.vel[r] = a[1]
+                        bk.size[r] = a[2]
+                        bk.srate[r] = 0.0
+                # the observations in the region are the group's, bar those plainly another track's
+                grab = inside & ~(~np.isin(owner, rows) & (owner_d < 0.5))
+                o_taken |= grab
+                if len(consumed):
+                    consumed[obs_cluster[grab & (obs_cluster >= 0)]] = True
                 continue
-            # the group separates: give the members the clusters that come out of it
+            # the group separates: give the members the observations that come out of it
             self.groups[gi] = None
             bk.group[rows] = -1
             bk.last_t[rows] = np.maximum(bk.last_t[rows], t - 1e-9)  # a fresh coasting period
             if len(cand) == 0:
                 continue
-            pairs = self._match_members(g, rows, cand, c_pos, c_size)
-            self._take(pairs, rows, cand, cl, c_pos, c_size, c_track, t)
-            # the rest of the clusters near the group stay with it for this frame
-            consumed[cand[c_track[cand] < 0]] = True
+            pairs = self._match_members(g, rows, z[cand], osize[cand])
+            self._take(pairs, rows, cand, z, osize, obs_cluster, cl, c_track, t)
+            # the rest of the observations near the group stay with it for this frame
+            o_taken[cand] = True
+            rest = obs_cluster[cand]
+            rest = rest[rest >= 0]
+            if len(consumed):
+                consumed[rest[c_track[rest] < 0]] = True
         self.groups = [g for g in self.groups if g is not None]
         for gi, g in enumerate(self.groups):
             rows = bk.rows_of(np.asarray(g.members, np.int64))
             bk.group[rows[rows >= 0]] = gi
 
-    def _match_members(self, g: Group, rows, cand, c_pos, c_size) -> list[tuple[int, int]]:
-        """Pairs (member index, candidate index): by colour (Bhattacharyya below
-        ``colour_max_dist``, a small position term breaking ties) when every member has a saved
-        colour model and there is an image, else by position; both gated."""
+    def _match_members(self, g: Group, rows, c_pos, c_size, mode="dissolve") -> list[tuple[int, int]]:
+        """Pairs (member index, candidate index) of a group's members and the observations
+        (bottom centres ``c_pos``, sizes ``c_size``) in its region.
+
+        ``mode``:
+
+        * ``"dissolve"`` (the group separates; the members may have coasted far): colour match
+          (Bhattacharyya below ``colour_max_dist``, a small position term breaking ties) when
+          every member has a colour model and there is an image, else nearest by position;
+          both within twice the gate;
+        * ``"equal"`` (as many observations as members, the group goes on): only "which is which"
+          is asked; least total cost of colour distance + position offset (in box sizes) + size
+          change, no colour threshold; each pair within one box size;
+        * ``"fewer"`` (some member is hidden): only colour matches below ``colour_max_dist``
+          within half a box size of the member's prediction.
+        """
         bk = self.bank
-        d = np.linalg.norm(bk.pos[rows][:, None, :] - c_pos[cand][None, :, :], axis=2)
-        gate = self._px(self.gate_px)
-        pos_cost = np.where(d <= 2 * gate, 0.1 * d / gate, np.inf)
         saved = [g.histograms.get(int(u)) for u in bk.uid[rows]]
-        ch = self._colour(_box_from(c_pos[cand], c_size[cand])) if all(h is not None for h in saved) else None
-        if ch is not None:
-            return [(i, j) for i, j, _ in match_by_colour(np.array(saved), ch, self.colour_max_dist,
-                                                          extra_cost=pos_cost)]
-        cost = np.where(np.isfinite(pos_cost), pos_cost, 1e9)
+        ch = self._colour(_box_from(c_pos, c_size)) if all(h is not None for h in saved) else None
+        if mode == "dissolve":
+            d = np.linalg.norm(bk.pos[rows][:, None, :] - c_pos[None, :, :], axis=2)
+            gate = self._px(self.gate_px)
+            pos_cost = np.where(d <= 2 * gate, 0.1 * d / gate, np.inf)
+            if ch is not None:
+                return [(i, j) for i, j, _ in match_by_colour(np.array(saved), ch, self.colour_max_dist,
+                                                              extra_cost=pos_cost)]
+            cost = np.where(np.isfinite(pos_cost), pos_cost, 1e9)
+            ri, ci = linear_sum_assignment(cost)
+            return [(int(i), int(j)) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
+        if mode == "fewer" and ch is None:
+            return []
+        floor = self._px(self.delta_px) / 4
+        msize = np.maximum(bk.size[rows], floor)  # (R, 2)
+        off = (c_pos[None, :, :] - bk.pos[rows][:, None, :]) / msize[:, None, :]
+        pos_norm = np.linalg.norm(off, axis=2)
+        ratio = np.maximum(c_size[None, :, :], 1.0) / msize[:, None, :]
+        size_term = np.abs(np.log(ratio)).sum(2) + 4.0 * np.maximum(ratio.max(2) - 1.5, 0.0)
+        col = colour_distance_matrix(np.array(saved), ch) if ch is not None else np.zeros(pos_norm.shape)
+        cost = col + pos_norm + 0.25 * size_term
+        ok = pos_norm <= (1.0 if mode == "equal" else 0.5)
+        if mode == "fewer":
+            ok &= col < self.colour_max_dist
+        cost = np.where(ok, cost, 1e9)
         ri, ci = linear_sum_assignment(cost)
         return [(int(i), int(j)) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
 
-    def _take(self, pairs, rows, cand, cl, c_pos, c_size, c_track, t) -> None:
+    def _take(self, pairs, rows, obs, z, osize, obs_cluster, cl, c_track, t) -> None:
+        """Update group members ``rows[i]`` with observations ``obs[j]`` for each pair (i, j)."""
         if not pairs:
             return
         pr = rows[[i for i, _ in pairs]]
-        pc = cand[[j for _, j in pairs]]
-        self._update_tracks(pr, c_pos[pc], c_size[pc], cl.sigmas[pc], cl.weights[pc], t, self._dt)
-        c_track[pc] = pr
+        pj = obs[[j for _, j in pairs]]
+        pc = obs_cluster[pj]
+        pos = self._estimate_obs(pr, pj, z)
+        sigma = np.where(pc[:, None] >= 0, cl.sigmas[np.maximum(pc, 0)] if len(cl) else 0.0,
+                         self._px(self.inject_sigma_px))
+        weight = np.where(pc >= 0, cl.weights[np.maximum(pc, 0)] if len(cl) else 0.0, 0.0)
+        self._update_tracks(pr, pos, osize[pj], sigma, weight, t, self._dt)
+        for r, c in zip(pr, pc):
+            if c >= 0 and c_track[c] < 0:
+                c_track[c] = r
+                self._c_sir[c] = True  # the others' particles in it stay theirs
+
+    def _estimate_obs(self, rows, obs, z) -> np.ndarray:
+        """Posterior mean of each track's own predicted particles given one observation each
+        (the kernel of that observation alone); the observation itself when they do not reach it."""
+        out = z[obs].copy()
+        if not self.prior_estimate or len(self.particles) == 0:
+            return out
+        for k, (r, j) in enumerate(zip(rows, obs)):  # a few group members per frame
+            own = self.labels == self.bank.uid[r]
+            if not own.any():
+                continue
+            p = self.particles[own]
+            w = np.exp(-np.linalg.norm((p - z[j]) / self._osig[j], axis=1))
+            if w.mean() > math.exp(-3.0):
+                out[k] = (w[:, None] * p).sum(0) / w.sum()
+        return out
 
     def _form_groups(self, t: float) -> None:
         bk = self.bank
@@ -823,11 +1085,13 @@ class PTrackingTracker:
                 continue  # already this group
             members: list[int] = []
             hists: dict[int, np.ndarray | None] = {}
+            anchors: dict[int, tuple] = {}
             formed = t
             for gi in old:
                 g = self.groups[gi]
                 members += g.members
                 hists.update(g.histograms)
+                anchors.update(g.anchors)
                 formed = min(formed, g.formed_t_s)
                 self.groups[gi] = None
             for r in rows:
@@ -835,7 +1099,8 @@ class PTrackingTracker:
                 if u not in members:
                     members.append(u)
                     hists[u] = bk.hist[r].copy() if bk.has_hist[r] else None
-            self.groups.append(Group(members, hists, formed))
+                    anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
+            self.groups.append(Group(members, hists, formed, anchors))
         self.groups = [g for g in self.groups if g is not None]
         bk.group[:] = -1
         for gi, g in enumerate(self.groups):
@@ -879,6 +1144,10 @@ class PTrackingTracker:
         # a cluster given to a track passes its particles to it (weighted)
         pc = np.where(cl.labels >= 0, c_track[np.maximum(cl.labels, 0)], -1) if len(c_track) else grp
         take = pc >= 0
+        if self.prior_estimate and len(c_track):
+            # SIR: a track that reached its observation resamples its own particles only
+            sir = self._c_sir[np.maximum(cl.labels, 0)] & (cl.labels >= 0)
+            take &= ~sir | (lab == bk.uid[np.maximum(pc, 0)])
         grp[take] = pc[take]
         wts[take] = w[take]
         n_inj = int(round(self.inject_frac * self.num_particles))
