@@ -46,13 +46,13 @@ def default_model_path() -> Path:
 def load_model_meta(model_path: str | Path) -> dict:
     """The JSON written beside a cascade by the trainer (box convention), or defaults."""
     p = Path(model_path).with_suffix(".json")
-    meta = {"box_ratio_w": 1.0, "box_ratio_h": 1.0, "box_dy_frac": 0.0}
+    meta = {"box_ratio_w": 1.0, "box_ratio_h": 1.0, "box_dx_frac": 0.0, "box_dy_frac": 0.0}
     if p.is_file():
         try:
             data = json.loads(p.read_text(encoding="utf-8"))
         except (ValueError, OSError) as exc:
             raise ValueError(f"{p}: not a valid model description: {exc}") from None
-        for k in ("box_ratio_w", "box_ratio_h", "box_dy_frac", "detector"):
+        for k in ("box_ratio_w", "box_ratio_h", "box_dx_frac", "box_dy_frac", "detector"):
             if k in data:
                 meta[k] = data[k]
     return meta
@@ -63,7 +63,7 @@ class CascadeParams:
     """Settings of :class:`CascadeDetector` (see ``DetectorSettings`` in :mod:`seawatch.config`)."""
 
     scale_factor: float = 1.1
-    min_neighbors: int = 3
+    min_neighbors: int = 0  # 0: the value chosen on validation data, stored beside the model (else 3)
     min_size_px: float = 0.0  # smallest boat (box width, source px); 0: automatic
     detection_width_px: int = 0  # overrides the detection scale; 0: automatic
     max_upscale: float = 4.0
@@ -125,6 +125,9 @@ class CascadeDetector:
         meta = load_model_meta(path)
         self.ratio_w = float(meta["box_ratio_w"])
         self.ratio_h = float(meta["box_ratio_h"])
+        if p.min_neighbors <= 0:
+            p.min_neighbors = int((meta.get("detector") or {}).get("min_neighbors", 3))
+        self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p
         self.horizon_tracker = HorizonTracker(tau_s=p.horizon_tau_s, hold_s=p.horizon_hold_s)
@@ -132,7 +135,27 @@ class CascadeDetector:
         self.n_bad_frames = 0
         self.last_windows = np.zeros((0, 4))
 
+    @classmethod
+    def from_config(cls, config) -> "CascadeDetector":
+        """Build from a :class:`seawatch.config.Config` (its ``[detector]`` section)."""
+        d = config.detector
+        return cls(
+            d.cascade_model or None,
+            scale_factor=d.scale_factor,
+            min_neighbors=d.min_neighbors,
+            min_size_px=float(d.min_size_px),
+            detection_width_px=int(d.detection_width_px),
+            horizon_filter=d.horizon_filter,
+            reflection_filter=d.reflection_filter,
+            canny_prune=getattr(d, "canny_prune", True),
+            horizon_tau_s=getattr(d, "horizon_tau_s", 0.5),
+        )
+
     # ------------------------------------------------------------------ geometry
+    def min_boat_px(self, width_px: int) -> float:
+        """Width of the smallest boat searched for in a frame ``width_px`` wide (source pixels)."""
+        return float(self.window[0] * self.ratio_w / self.detection_scale(width_px))
+
     def detection_scale(self, width_px: int) -> float:
         """Resize factor applied to a frame ``width_px`` wide before the cascade runs."""
         p = self.params
@@ -144,7 +167,7 @@ class CascadeDetector:
 
     def windows_to_boxes(self, windows: np.ndarray) -> np.ndarray:
         w = np.asarray(windows, np.float64).reshape(-1, 4)
-        cx = w[:, 0] + w[:, 2] / 2
+        cx = w[:, 0] + w[:, 2] * (0.5 + self.dx_frac)
         cy = w[:, 1] + w[:, 3] * (0.5 + self.dy_frac)
         bw = w[:, 2] * self.ratio_w
         bh = w[:, 3] * self.ratio_h
@@ -173,9 +196,23 @@ class CascadeDetector:
     def detect_grey(self, grey_raw: np.ndarray, t_s: float = 0.0, ir: bool = False
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Boxes and scores on one grey (unsmoothed) image; updates the horizon state."""
+        g = prepare_grey(grey_raw, ir=ir, median_px=self.params.median_px)
+        wins, counts = self.raw_windows(g)
+        return self.postprocess(g, grey_raw, wins, counts, t_s, ir)
+
+    def postprocess(self, g: np.ndarray, grey_raw: np.ndarray, wins: np.ndarray, scores: np.ndarray,
+                    t_s: float = 0.0, ir: bool = False, min_neighbors: int | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The filters after the cascade: neighbour threshold, Canny pruning, nested boxes,
+        horizon line, reflections; then windows become boxes.
+
+        ``min_neighbors`` (default: the detector's) drops grouped windows with fewer neighbours,
+        so that one cascade pass run with ``min_neighbors=1`` can be re-thresholded.
+        """
         p = self.params
-        g = prepare_grey(grey_raw, ir=ir, median_px=p.median_px)
-        wins, scores = self.raw_windows(g)
+        if min_neighbors is not None and len(wins):
+            keep = scores >= min_neighbors
+            wins, scores = wins[keep], scores[keep]
         if p.canny_prune and len(wins):
             keep = canny_prune(g, wins, p.min_edge_frac)
             wins, scores = wins[keep], scores[keep]

@@ -34,8 +34,8 @@ def load_training_data(data_dir: str | Path, use_sim: bool = True, sim_frames: i
         images += load_coral(d / "coral_d1")
     parts = split_images(images)
     if use_sim:
-        sim = load_sim(frames_per_scenario=sim_frames, seed=seed)
-        parts["train"] += sim
+        parts["train"] += load_sim(frames_per_scenario=sim_frames, seed=seed)
+        parts["val"] += load_sim(frames_per_scenario=max(2, sim_frames // 4), seed=seed + 100)
     return parts
 
 
@@ -108,15 +108,93 @@ def _raw_grey(im: LabelledImage) -> np.ndarray:
     return to_grey(img, str(im.path))
 
 
-def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage], candidates=(1, 2, 3, 4, 5, 6, 8),
-                       iou: float = 0.3, log=print, **detector_kw) -> tuple[int, dict]:
-    """The ``min_neighbors`` of best F1 at ``iou`` on validation images, and all figures."""
+def calibrate_boxes(model_path: str | Path, images: list[LabelledImage], min_iou: float = 0.3,
+                    log=print) -> dict:
+    """Learn the window -> box mapping (the annotation's box convention) from training images.
+
+    The cascade's grouped windows that match an annotated box (IoU >= ``min_iou`` after the
+    trainer's nominal mapping, or containing it) give the median offsets of the box centre and
+    the median box/window width and height ratios.  Returns ``box_ratio_w, box_ratio_h,
+    box_dx_frac, box_dy_frac`` and the number of matches.
+    """
     from seawatch.detect.cascade import CascadeDetector
 
+    det = CascadeDetector(model_path, min_neighbors=3, canny_prune=False, horizon_filter=False,
+                          reflection_filter=False, suppress_nested=False)
+    rel = []
+    for im in images:
+        if len(im.boxes) == 0:
+            continue
+        g = det_prepare(im, det)
+        wins, _ = det.raw_windows(g)
+        if len(wins) == 0:
+            continue
+        iou = iou_matrix(det.windows_to_boxes(wins), im.boxes)
+        r, c = linear_sum_assignment(-iou)
+        for i, j in zip(r, c):
+            if iou[i, j] >= min_iou:
+                wk, gb = wins[i], im.boxes[j]
+                rel.append(((gb[0] + gb[2] / 2 - wk[0] - wk[2] / 2) / wk[2],
+                            (gb[1] + gb[3] / 2 - wk[1] - wk[3] / 2) / wk[3], gb[2] / wk[2], gb[3] / wk[3]))
+    if len(rel) < 10:
+        log(f"  box calibration: only {len(rel)} matches, keeping the nominal convention")
+        return {"box_calibration_matches": len(rel)}
+    rel = np.asarray(rel)
+    med = np.median(rel, axis=0)
+    out = {"box_dx_frac": float(med[0]), "box_dy_frac": float(med[1]), "box_ratio_w": float(med[2]),
+           "box_ratio_h": float(med[3]), "box_calibration_matches": int(len(rel))}
+    log(f"  box calibration on {len(rel)} matched windows: w x{med[2]:.3f}, h x{med[3]:.3f}, "
+        f"dx {med[0]:+.3f}, dy {med[1]:+.3f} of the window")
+    return out
+
+
+def det_prepare(im: LabelledImage, det) -> np.ndarray:
+    """The grey image a detector's cascade sees for a labelled image."""
+    from seawatch.detect.filters import prepare_grey
+    return prepare_grey(_raw_grey(im), ir=im.ir, median_px=det.params.median_px)
+
+
+def _update_json(xml: str | Path, fields: dict) -> None:
+    p = Path(xml).with_suffix(".json")
+    data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
+    data.update(fields)
+    p.write_text(json.dumps(data, indent=1, default=float) + "\n", encoding="utf-8")
+
+
+def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
+                       candidates=(1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128),
+                       iou: float = 0.3, log=print, **detector_kw) -> tuple[int, dict]:
+    """The ``min_neighbors`` of best F1 at ``iou`` on validation images, and all figures.
+
+    One cascade pass per image (``min_neighbors=1``), re-thresholded for every candidate.
+    """
+    from seawatch.detect.cascade import CascadeDetector
+
+    det = CascadeDetector(model_path, min_neighbors=1, **detector_kw)
+    raw = []
+    for im in images:
+        g = det_prepare(im, det)
+        raw.append((g, _raw_grey(im)) + det.raw_windows(g))
+    truth = []
+    for im, (g, _, _, _) in zip(images, raw):
+        small = im.boxes[:, 2] < 0.8 * det.min_boat_px(g.shape[1]) if len(im.boxes) else np.zeros(0, bool)
+        truth.append((im.boxes[~small], np.concatenate([im.ignore.reshape(-1, 4), im.boxes[small]])))
     table = {}
     for mn in candidates:
-        det = CascadeDetector(model_path, min_neighbors=int(mn), **detector_kw)
-        res = evaluate_images(det, images, ious=(0.3, 0.5))
+        counts = {i: [0, 0, 0] for i in (0.3, 0.5)}
+        for im, (g, graw, wins, cnt), (gt, ign) in zip(images, raw, truth):
+            det.reset()
+            boxes, _ = det.postprocess(g, graw, wins, cnt, 0.0, im.ir, min_neighbors=int(mn))
+            for i in counts:
+                tp, fp, fn = match_counts(boxes, gt, i)
+                if fp and len(ign):
+                    un = _unmatched(boxes, gt, i)
+                    fp -= int((iou_matrix(boxes[un], ign).max(axis=1) >= i).sum()) if len(un) else 0
+                c = counts[i]
+                c[0] += tp
+                c[1] += fp
+                c[2] += fn
+        res = {i: scores_from_counts(*c) for i, c in counts.items()}
         table[int(mn)] = res
         log(f"  min_neighbors {mn}: F1@0.3 {res[0.3]['F1']:.3f} (TPR {res[0.3]['TPR']:.3f}, FAR {res[0.3]['FAR']:.3f}),"
             f" F1@0.5 {res[0.5]['F1']:.3f}")
@@ -136,9 +214,13 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
             srcs[im.source] = srcs.get(im.source, 0) + 1
         log(f"  {k}: {len(v)} images {srcs}")
     cascade, record = train_cascade(parts["train"], out_xml, s, log=log)
-    val_mardct = [im for im in parts["val"] if im.source == "mardct"]
-    best, table = tune_min_neighbors(out_xml, val_mardct, log=log)
-    log(f"  chosen min_neighbors {best} (validation part, MarDCT)")
+    calib = calibrate_boxes(out_xml, [im for im in parts["train"] if im.source in ("mardct", "sim")], log=log)
+    _update_json(out_xml, calib)
+    record.update(calib)
+    val = [im for im in parts["val"] if im.source in ("mardct", "sim")]
+    best, table = tune_min_neighbors(out_xml, val, log=log)
+    log(f"  chosen min_neighbors {best} (validation part: MarDCT and simulator frames)")
+    _update_json(out_xml, {"detector": {"min_neighbors": int(best)}})
     from seawatch.detect.cascade import CascadeDetector
 
     det = CascadeDetector(out_xml, min_neighbors=best)

@@ -178,12 +178,13 @@ def load_coral(coral_dir: str | Path) -> list[LabelledImage]:
     return out
 
 
-def load_sim(scenarios: tuple[str, ...] = ("harbour", "pan", "ir"), frames_per_scenario: int = 20,
-             seed: int = 0, min_visible: float = 0.7) -> list[LabelledImage]:
+def load_sim(scenarios: tuple[str, ...] = ("harbour", "pan", "ir", "open_sea", "crossing"),
+             frames_per_scenario: int = 20, seed: int = 0, min_visible: float = 0.7,
+             min_box_w_px: float = 12.0) -> list[LabelledImage]:
     """Frames rendered by the simulator with their ground-truth boxes (empty without it).
 
-    Only vessels at least ``min_visible`` visible are kept as boats; the partly hidden ones are
-    remembered as ``ignore`` regions (neither positives nor negatives).
+    Only vessels at least ``min_visible`` visible and ``min_box_w_px`` wide are kept as boats;
+    the others are remembered as ``ignore`` regions (neither positives nor negatives).
     """
     try:
         from seawatch.sim import SCENARIOS, make_scenario
@@ -201,7 +202,7 @@ def load_sim(scenarios: tuple[str, ...] = ("harbour", "pan", "ir"), frames_per_s
             gt = scn.ground_truth(int(i))
             vis = np.asarray(gt.visible, float)
             bx = np.asarray(gt.boxes, np.float64).reshape(-1, 4)
-            ok = vis >= min_visible
+            ok = (vis >= min_visible) & (bx[:, 2] >= min_box_w_px)
             ir = str(getattr(scn, "modality", "EO")).upper().endswith("IR")
             out.append(LabelledImage(f"sim_{name}_{i}", "sim", bx[ok], image=fr.image, ir=ir,
                                      group=f"sim:{name}", order=float(i), ignore=bx[~ok]))

@@ -64,6 +64,7 @@ class TrainSettings:
     min_window_src_px: float = 20.0  # smallest window width scanned for negatives, source pixels
     neg_iou_max: float = 0.2  # a negative window overlaps no boat or boat window more than this
     max_scan_windows: float = 3e7  # per stage; fewer negatives than needed then: stop
+    mine_weights: dict = field(default_factory=lambda: {"mardct": 0.5, "coral": 0.25, "sim": 0.25})
     wake_stage: bool = True
     wake_min_hit_rate: float = 0.99
     wake_max_false_alarm: float = 0.5
@@ -152,10 +153,15 @@ def mine_negatives(
     got: list[np.ndarray] = []
     n_got = n_scan = n_acc = 0
     cw, ch = s.crop_px
+    src = [im.source for im in images]
+    n_src = {k: src.count(k) for k in set(src)}
+    wsum = sum(s.mine_weights.get(k, 0.2) for k in n_src)
+    prob = np.array([s.mine_weights.get(k, 0.2) / wsum / n_src[k] for k in src])
+    prob /= prob.sum()
     tries = 0
     while n_got < n_needed and n_scan < max_windows and tries < 200000:
         tries += 1
-        i = int(rng.integers(len(images)))
+        i = int(rng.choice(len(images), p=prob))
         im = images[i]
         g = cache.get(i, im)
         h, w = g.shape
