@@ -183,3 +183,11 @@ def test_blobs_to_detections_azel():
     assert abs(d.azel_deg[0, 0] - 30.0) < 0.2  # the image centre looks along the pan
     assert d.camera_id == "c1" and d.t_s == 1.5 and len(d) == 2
     assert blobs_to_detections(np.zeros((0, 4)), 0.0, 0).azel_deg is None
+
+
+def test_from_config():
+    from seawatch.config import load_config
+
+    cfg = load_config(overrides=["detector.rk_k_sigma=2.5", "detector.rk_empirical_test=true"])
+    det = RobustKalmanDetector.from_config(cfg)
+    assert det.model.k_sigma == 2.5 and det.model.empirical_test is True

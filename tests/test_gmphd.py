@@ -217,3 +217,12 @@ def test_tracker_protocol_and_bad_input():
     assert tr.n_late_reports == 1 and len(late) == 1
     with pytest.raises(ValueError, match="older"):
         tr.filter.step(PHDReport(1.0, "a", np.zeros((0, 2))))
+
+
+def test_from_config():
+    from seawatch.config import load_config
+
+    cfg = load_config(overrides=["tracker.phd_birth_range_m=[2000.0, 4000.0]", "tracker.phd_penalise=false"])
+    tr = GMPHDTracker.from_config(cfg, [PHDSensor("a", (0.0, 0.0, 10.0))])
+    assert tr.filter.birth_range_m.tolist() == [2000.0, 4000.0] and tr.filter.penalise is False
+    assert tr.filter.max_components == 100 and tr.filter.merge_threshold == 4.0

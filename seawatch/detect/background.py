@@ -384,7 +384,8 @@ class RobustKalmanDetector:
             hard_gate=d.rk_hard_gate, q0=d.rk_q0, r0=d.rk_r0, warmup_s=d.rk_warmup_s,
             work_width_px=d.rk_work_width_px, colour=d.rk_colour, min_area_px=d.min_area_px,
             max_area_frac=d.max_area_frac, open_px=d.rk_open_px, close_px=d.rk_close_px,
-            camera=camera,
+            empirical_test=d.rk_empirical_test, test_window_s=d.rk_test_window_s,
+            persist_px=d.rk_persist_px, r_min=d.rk_r_min, camera=camera,
         )
 
     def reset(self) -> None:

@@ -671,11 +671,13 @@ class GMPHDTracker:
         return cls(
             sensors, origin_geodetic=origin_geodetic,
             accel_std_mps2=t.phd_accel_std_mps2, vertical_accel_std_mps2=t.phd_vertical_accel_std_mps2,
-            ps=t.phd_ps, birth_weight=t.phd_birth_weight, adaptive_birth=t.phd_adaptive_birth,
-            birth_range_m=t.phd_birth_range_m, birth_sigma_range_m=t.phd_birth_sigma_range_m,
-            birth_sigma_v_mps=t.phd_birth_sigma_v_mps, prune_threshold=t.phd_prune_threshold,
+            ps=t.phd_ps, ps_unseen=t.phd_ps_unseen, birth_weight=t.phd_birth_weight,
+            adaptive_birth=t.phd_adaptive_birth, birth_range_m=tuple(t.phd_birth_range_m),
+            birth_sigma_range_m=t.phd_birth_sigma_range_m, birth_sigma_v_mps=t.phd_birth_sigma_v_mps,
+            birth_max_abs_up_m=t.phd_birth_max_abs_up_m, prune_threshold=t.phd_prune_threshold,
             merge_threshold=t.phd_merge_threshold, max_components=t.phd_max_components,
             extract_threshold=t.phd_extract_threshold,
+            extract_keep_threshold=t.phd_extract_keep_threshold, penalise=t.phd_penalise,
         )
 
     def update(self, detections: Detections, frame=None) -> Tracks:
