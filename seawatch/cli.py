@@ -446,6 +446,8 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--min-hit-rate", type=float, default=0.995, help="per-stage minimum hit rate (0.995)")
     p.add_argument("--max-false-alarm", type=float, default=0.5, help="per-stage maximum false-alarm rate (0.5)")
     p.add_argument("--max-weak-count", type=int, default=100, help="most stumps per stage (100)")
+    p.add_argument("--early-weak-counts", default="4,8,12,16,24,32,48,64",
+                   help="most stumps in the first stages, comma-separated ('' for none): a faster detector")
     p.add_argument("--features-per-stage", type=int, default=6000, help="random Haar features tried per stage (6000)")
     p.add_argument("--max-positives", type=int, default=6000, help="most positive windows after augmentation (6000)")
     p.add_argument("--window", default="60x30", help="window WIDTHxHEIGHT in pixels (60x30)")
@@ -466,7 +468,12 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         raise CLIError(f"--window {args.window!r}: expected WIDTHxHEIGHT, e.g. 60x30") from None
     if ww < 8 or wh < 8:
         raise CLIError(f"--window {args.window}: at least 8x8 pixels")
+    try:
+        early = tuple(int(v) for v in str(args.early_weak_counts).split(",") if v.strip())
+    except ValueError:
+        raise CLIError(f"--early-weak-counts {args.early_weak_counts!r}: expected integers like 4,8,16") from None
     s = TrainSettings(
+        early_weak_counts=early,
         width_px=ww, height_px=wh, n_stages=args.stages, min_hit_rate=args.min_hit_rate,
         max_false_alarm=args.max_false_alarm, max_weak_count=args.max_weak_count,
         features_per_stage=args.features_per_stage, max_positives=args.max_positives,

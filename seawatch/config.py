@@ -55,6 +55,10 @@ class DetectorSettings:
     detection_width_px: int = 0  # 0: automatic
     horizon_filter: bool = True
     reflection_filter: bool = True
+    cascade_min_neighbors: int = 0  # 0: the value chosen on validation data, stored with the model
+    canny_prune: bool = True  # drop cascade windows with too few Canny edge pixels
+    horizon_tau_s: float = 0.5  # time constant of the horizon line's smoothing
+    water_roi: bool = True  # with the horizon filter, scan only below the horizon line
     # robust Kalman background model (paper C); see docs/paper_c.md
     rk_k_sigma: float = 3.0  # foreground beyond k sqrt(P_pred + r)
     rk_window_s: float = 2.0  # memory of the EM statistics (paper: N = 50 frames)

@@ -134,3 +134,14 @@ def test_shipped_model_loads():
     img, _, _ = _scene(630)
     d = det.detect(Frame(img, 0.0, 0))
     assert d.boxes.shape[1] == 4
+
+
+def test_from_config(model):
+    from seawatch.config import load_config
+
+    cfg = load_config(overrides=[f"detector.cascade_model={model}", "detector.cascade_min_neighbors=7",
+                                 "detector.horizon_filter=false", "detector.min_size_px=40"])
+    det = CascadeDetector.from_config(cfg)
+    assert det.model_path == model
+    assert det.params.min_neighbors == 7 and det.params.horizon_filter is False
+    assert det.min_boat_px(320) == pytest.approx(40.0)

@@ -74,6 +74,8 @@ class CascadeParams:
     horizon_filter: bool = True
     horizon_tau_s: float = 0.5
     horizon_hold_s: float = 2.0
+    water_roi: bool = True  # with the horizon filter: scan only below the horizon (less a margin)
+    roi_margin_frac: float = 0.2
     reflection_filter: bool = True
     reflection_min_per_100px2: float = 0.05
     fast_threshold: int = 20
@@ -142,13 +144,14 @@ class CascadeDetector:
         return cls(
             d.cascade_model or None,
             scale_factor=d.scale_factor,
-            min_neighbors=d.min_neighbors,
+            min_neighbors=int(getattr(d, "cascade_min_neighbors", 0)),
             min_size_px=float(d.min_size_px),
             detection_width_px=int(d.detection_width_px),
             horizon_filter=d.horizon_filter,
             reflection_filter=d.reflection_filter,
             canny_prune=getattr(d, "canny_prune", True),
             horizon_tau_s=getattr(d, "horizon_tau_s", 0.5),
+            water_roi=getattr(d, "water_roi", True),
         )
 
     # ------------------------------------------------------------------ geometry
@@ -195,14 +198,33 @@ class CascadeDetector:
 
     def detect_grey(self, grey_raw: np.ndarray, t_s: float = 0.0, ir: bool = False
                     ) -> tuple[np.ndarray, np.ndarray]:
-        """Boxes and scores on one grey (unsmoothed) image; updates the horizon state."""
-        g = prepare_grey(grey_raw, ir=ir, median_px=self.params.median_px)
-        wins, counts = self.raw_windows(g)
-        return self.postprocess(g, grey_raw, wins, counts, t_s, ir)
+        """Boxes and scores on one grey (unsmoothed) image; updates the horizon state.
+
+        With the horizon filter on and ``water_roi``, the cascade scans only the image below
+        the horizon line less ``roi_margin_frac`` of the image height: detections whose centre
+        lies above a water-coast line are dropped anyway, and the textured land is where a
+        cascade spends its time (flat sky and water are rejected by the variance check).
+        """
+        p = self.params
+        g = prepare_grey(grey_raw, ir=ir, median_px=p.median_px)
+        y0 = 0
+        if p.horizon_filter:
+            self._update_horizon(grey_raw, t_s, ir)
+            if p.water_roi and self.horizon is not None:
+                y0 = int(max(0.0, np.floor(min(self.horizon.y_left, self.horizon.y_right)
+                                           - p.roi_margin_frac * g.shape[0])))
+        wins, counts = self.raw_windows(g[y0:] if y0 else g)
+        if y0 and len(wins):
+            wins = wins + np.array([0.0, y0, 0.0, 0.0])
+        return self.postprocess(g, grey_raw, wins, counts, t_s, ir, update_horizon=False)
+
+    def _update_horizon(self, grey_raw: np.ndarray, t_s: float, ir: bool) -> None:
+        src = grey_raw if grey_raw.dtype == np.uint8 and not ir else prepare_grey(grey_raw, ir=True, median_px=0)
+        self.horizon = self.horizon_tracker.update(src, t_s)
 
     def postprocess(self, g: np.ndarray, grey_raw: np.ndarray, wins: np.ndarray, scores: np.ndarray,
-                    t_s: float = 0.0, ir: bool = False, min_neighbors: int | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    t_s: float = 0.0, ir: bool = False, min_neighbors: int | None = None,
+                    update_horizon: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The filters after the cascade: neighbour threshold, Canny pruning, nested boxes,
         horizon line, reflections; then windows become boxes.
 
@@ -220,8 +242,8 @@ class CascadeDetector:
             keep = suppress_nested(wins, scores)
             wins, scores = wins[keep], scores[keep]
         if p.horizon_filter:
-            src = grey_raw if grey_raw.dtype == np.uint8 and not ir else prepare_grey(grey_raw, ir=True, median_px=0)
-            self.horizon = self.horizon_tracker.update(src, t_s)
+            if update_horizon:
+                self._update_horizon(grey_raw, t_s, ir)
             if len(wins):
                 keep = horizon_filter(wins, self.horizon)
                 wins, scores = wins[keep], scores[keep]

@@ -72,30 +72,33 @@ def _texture_above(grey: np.ndarray, edges: np.ndarray, yl: float, yr: float, ba
     return tot / cnt if cnt else 0.0
 
 
-def _refine(edges: np.ndarray, yl: np.ndarray, yr: np.ndarray, band_px: float = 3.0
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares fit of each Hough line to the edge pixels within ``band_px`` of it.
+def _refine_one(pts: tuple[np.ndarray, np.ndarray], yl: float, yr: float, w: int, band_px: float = 3.0
+                ) -> tuple[float, float]:
+    """Least-squares fit of a Hough line to the edge pixels within ``band_px`` of it.
 
     The Hough grid is 1 degree and 1 px; the fit removes that quantisation (which alone can
     push the two ends of a long line 10 px apart).
     """
-    ys, xs = np.nonzero(edges)
-    h, w = edges.shape
-    yl = yl.copy()
-    yr = yr.copy()
-    if len(xs) == 0:
+    xf, yf = pts
+    if len(xf) == 0:
         return yl, yr
-    xf = xs.astype(np.float64)
-    yf = ys.astype(np.float64)
-    for i in range(len(yl)):
-        a, b = yl[i], (yr[i] - yl[i]) / max(w - 1, 1)
-        for _ in range(2):
-            near = np.abs(yf - (a + b * xf)) <= band_px
-            if near.sum() < max(10, 0.1 * w):
-                break
-            b, a = np.polyfit(xf[near], yf[near], 1)
-        yl[i], yr[i] = a, a + b * (w - 1)
-    return yl, yr
+    a, b = yl, (yr - yl) / max(w - 1, 1)
+    lo, hi = min(yl, yr) - band_px - 1, max(yl, yr) + band_px + 1
+    sel = (yf >= lo) & (yf <= hi)  # edge rows near the line only
+    xs, ys = xf[sel], yf[sel]
+    for _ in range(2):
+        near = np.abs(ys - (a + b * xs)) <= band_px
+        n = int(near.sum())
+        if n < max(10, 0.1 * w):
+            break
+        xn, yn = xs[near], ys[near]
+        mx, my = xn.mean(), yn.mean()
+        vx = float(((xn - mx) ** 2).sum())
+        if vx <= 0:
+            break
+        b = float(((xn - mx) * (yn - my)).sum()) / vx
+        a = my - b * mx
+    return float(a), float(a + b * (w - 1))
 
 
 def detect_horizon(
@@ -155,7 +158,7 @@ def detect_horizon(
     f = 1.0
     if work_width_px and w0 > work_width_px:
         f = work_width_px / w0
-        g = cv2.resize(g, (work_width_px, max(1, int(round(h0 * f)))), interpolation=cv2.INTER_AREA)
+        g = cv2.resize(g, (work_width_px, max(1, int(round(h0 * f)))), interpolation=cv2.INTER_LINEAR)
     h, w = g.shape
     omax = max(pair_offsets_px)
     if h < 2 * omax + 12 or w < 8:
@@ -178,27 +181,43 @@ def detect_horizon(
     # row at column x: y = (rho - x cos t) / sin t
     yl = rho / np.sin(theta)
     yr = (rho - (w - 1) * np.cos(theta)) / np.sin(theta)
-    yl, yr = _refine(edges, yl, yr)
     order = np.argsort(-(yl + yr))  # bottom first
+    pts = None  # edge pixel coordinates, found when a line is first refitted
     cols = np.linspace(0, w - 1, n_columns + 1)[1:-1] if n_columns > 1 else np.array([w / 2])
+    xc = np.round(cols).astype(int)
     gi = g.astype(np.int16)
-    for i in order:
-        if abs(yl[i] - yr[i]) >= max_end_diff_px:
-            continue
-        ys = yl[i] + (yr[i] - yl[i]) * cols / max(w - 1, 1)
+
+    def support_of(a: float, b: float) -> float:
+        ys = a + (b - a) * cols / max(w - 1, 1)
         if ys.min() - omax < 0 or ys.max() + omax > h - 1:
-            continue
-        xc = np.round(cols).astype(int)
+            return -1.0
         yc = np.round(ys).astype(int)
         diffs = np.concatenate([np.abs(gi[yc - d, xc] - gi[yc + d, xc]) for d in pair_offsets_px])
-        support = float((diffs > min_grey_diff).mean())
+        return float((diffs > min_grey_diff).mean())
+
+    slack = 0.5 * math.pi / 180.0 * w + 1.0  # the Hough grid's angular quantisation over the width
+    seen: list[tuple[float, float]] = []
+    for i in order:
+        a, b = float(yl[i]), float(yr[i])
+        if abs(a - b) >= max_end_diff_px + slack or any(abs(a - p) < 1.5 and abs(b - q) < 1.5 for p, q in seen):
+            continue
+        seen.append((a, b))
+        if support_of(a, b) <= min_support - 0.2:  # hopeless even before refitting
+            continue
+        if pts is None:
+            ys_e, xs_e = np.nonzero(edges)
+            pts = (xs_e.astype(np.float64), ys_e.astype(np.float64))
+        a, b = _refine_one(pts, a, b, w)
+        if abs(a - b) >= max_end_diff_px:
+            continue
+        support = support_of(a, b)
         if support > min_support:
             band = max(8, int(round(0.08 * h)))
-            tex = _texture_above(g, edges, yl[i], yr[i], band)
+            tex = _texture_above(g, edges, a, b, band)
             kind = "coast" if tex > coast_edge_density else "sky"
             # back to the input's pixels (pixel centres scale as (v + 0.5) / f - 0.5)
-            y0 = (yl[i] + 0.5) / f - 0.5
-            y1 = (yr[i] + 0.5) / f - 0.5
+            y0 = (a + 0.5) / f - 0.5
+            y1 = (b + 0.5) / f - 0.5
             return Horizon(float(y0), float(y1), w0, kind, support)
     return None
 

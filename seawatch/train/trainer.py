@@ -49,6 +49,9 @@ class TrainSettings:
     max_false_alarm: float = 0.5
     target_false_alarm: float = 1e-6  # stop when the cascade's false-alarm rate falls below
     max_weak_count: int = 100
+    # stumps allowed in the first stages (then max_weak_count): cheap early stages make a fast
+    # detector; a capped stage may stop above max_false_alarm
+    early_weak_counts: tuple[int, ...] = (4, 8, 12, 16, 24, 32, 48, 64)
     weight_trim_rate: float = 0.95
     n_bins: int = 64
     feature_kinds: tuple[str, ...] = ("x2", "y2", "x3", "y3", "x4", "y4", "x2y2", "point")
@@ -367,7 +370,8 @@ def train_cascade(
         labels = np.concatenate([np.ones(len(pos)), -np.ones(len(neg))])
         binned = _binned_values(samples, pool, ids, s.n_bins, rng)
         t_feat = time.perf_counter() - t1
-        res = train_stage(binned, labels, ids, s.min_hit_rate, s.max_false_alarm, s.max_weak_count,
+        cap = s.early_weak_counts[st] if st < len(s.early_weak_counts) else s.max_weak_count
+        res = train_stage(binned, labels, ids, s.min_hit_rate, s.max_false_alarm, min(cap, s.max_weak_count),
                           s.n_bins, s.weight_trim_rate, rng)
         cascade.stages.append(res.stage)
         keep = res.passed
