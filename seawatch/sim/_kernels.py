@@ -218,3 +218,89 @@ def blend_reflection(img, y0, x0, h, w, canvas, cy0, cx0, a0, top, depth_px, amp
             for k in range(nc):
                 v = img[y0 + r, x0 + c, k] * (1.0 - a) + canvas[rr, cc, k] * a + 0.5
                 img[y0 + r, x0 + c, k] = np.uint8(min(255.0, max(0.0, v)))
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, water_top_y):
+    """:func:`sea_waves` with the per-pixel maps interpolated from a coarse grid on the fly.
+
+    ``grid`` is ``(Gh, Gw, 4)`` float32 (texture x, y, wave contrast, glint strength); sample
+    ``(i, j)`` sits at pixel ``((j - 0.5) * step - 0.5, (i - 0.5) * step - 0.5)`` (one sample of
+    padding), and pixels take the bilinear interpolation of the four samples around them (what
+    ``cv2.resize(INTER_LINEAR)`` of the grid by ``step`` gives).  Rows ``r0 .. H`` are processed.
+    """
+    h = out.shape[0]
+    w = out.shape[1]
+    c = out.shape[2]
+    gw = grid.shape[1]
+    hb = hi_map.shape[0]
+    m = tile.shape[0] - 1
+    nwt = water_top_y.shape[0]
+    one = np.float32(1.0)
+    half = np.float32(0.5)
+    c128 = np.float32(128.0)
+    inv = np.float32(1.0 / 255.0)
+    inv_s = 1.0 / step
+    jx = np.empty(w, np.int64)
+    wx = np.empty(w, np.float32)
+    for x in range(w):
+        f = (x + 0.5) * inv_s + 0.5
+        jx[x] = int(f)
+        wx[x] = f - int(f)
+    row = np.empty((gw, 4), np.float32)
+    drow = np.empty((gw, 4), np.float32)
+    for y in range(r0, h):
+        f = (y + 0.5) * inv_s + 0.5
+        i = int(f)
+        a = np.float32(f - i)
+        for j in range(gw):
+            for k in range(4):
+                row[j, k] = grid[i, j, k] + a * (grid[i + 1, j, k] - grid[i, j, k])
+        for j in range(gw - 1):
+            for k in range(4):
+                drow[j, k] = row[j + 1, k] - row[j, k]
+        for x in range(w):
+            j = jx[x]
+            b = wx[x]
+            am = row[j, 2] + b * drow[j, 2]
+            g = row[j, 3] + b * drow[j, 3]
+            if am < 0.004 and g < 0.004:  # invisible (< 1 grey level)
+                continue
+            yh = y - hi_r0
+            if yh < hb:
+                xi = int(hi_map[yh, x, 0])
+                if xi < 0:
+                    xi = 0
+                elif xi >= nwt:
+                    xi = nwt - 1
+                if hi_map[yh, x, 1] <= water_top_y[xi]:
+                    continue
+            fx = row[j, 0] + b * drow[j, 0]
+            fy = row[j, 1] + b * drow[j, 1]
+            ix = int(np.floor(fx))
+            iy = int(np.floor(fy))
+            ax = fx - np.float32(ix)
+            ay = fy - np.float32(iy)
+            x0 = ix & m
+            x1 = (ix + 1) & m
+            y0 = iy & m
+            y1 = (iy + 1) & m
+            w00 = (one - ax) * (one - ay)
+            w01 = ax * (one - ay)
+            w10 = (one - ax) * ay
+            w11 = ax * ay
+            s = (w00 * np.float32(tile[y0, x0, 0]) + w01 * np.float32(tile[y0, x1, 0])
+                 + w10 * np.float32(tile[y1, x0, 0]) + w11 * np.float32(tile[y1, x1, 0]))
+            d = (s - c128) * am
+            gg = np.float32(0.0)
+            if g > 0.0:
+                gl = (w00 * np.float32(tile[y0, x0, 1]) + w01 * np.float32(tile[y0, x1, 1])
+                      + w10 * np.float32(tile[y1, x0, 1]) + w11 * np.float32(tile[y1, x1, 1]))
+                gg = gl * g * inv
+            for k in range(c):
+                v = np.float32(out[y, x, k]) + d * gain[k] + gg * glint_col[k] + half
+                if v < 0.0:
+                    v = np.float32(0.0)
+                elif v > 255.0:
+                    v = np.float32(255.0)
+                out[y, x, k] = np.uint8(v)

@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from seawatch.camera import CameraModel
-from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, first_water_rows, sea_waves
+from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, first_water_rows, sea_waves_grid
 from seawatch.sim.texture import (
     CoastSpec,
     Panorama,
@@ -117,7 +117,7 @@ def _bgr_tuple(c, n: int):
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_maps", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache")
+    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache")
 
 
 class Renderer:
@@ -330,10 +330,10 @@ class Renderer:
         view.hi_r0 = m0
         if r0_ < H:
             view.sea_r0 = r0_
-            view.sea_maps = up(s, (H, W), (tx, ty, amp, gl), r0_)
+            view.sea_grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
         else:
             view.sea_r0 = 0
-            view.sea_maps = np.zeros((0, W, 4), np.float32)
+            view.sea_grid = None
         wr = first_water_rows(hi_map, self._water_top_y) + m0  # b1 where none in the band rows
         view.water_row = np.where(wr >= b1, b1 if r0_ < H else H, wr).astype(np.float64)
         return view
@@ -374,7 +374,7 @@ class Renderer:
     def _sea_image(self, view: _View, t_s: float) -> np.ndarray:
         """Background plus animated waves (a fresh array), cached per wave frame for steady views."""
         o = self.options
-        if not (o.waves and view.sea_maps.shape[0]):
+        if not (o.waves and view.sea_grid is not None):
             return view.bg.copy()
         fi = self.waves.frame_index(t_s)
         cache = view.sea_cache
@@ -387,8 +387,8 @@ class Renderer:
                 img[r0:] = hit
                 return img
         img = view.bg.copy()
-        sea_waves(img, r0, view.sea_maps, self.waves.frame(t_s), self._gain, self._glint_col,
-                  view.hi_map, view.hi_r0, self._water_top_y)
+        sea_waves_grid(img, r0, view.sea_grid, _GRID_PX, self.waves.frame(t_s), self._gain, self._glint_col,
+                       view.hi_map, view.hi_r0, self._water_top_y)
         nb = img[r0:].nbytes
         if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
             cache[fi] = img[r0:].copy()
