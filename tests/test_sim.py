@@ -305,3 +305,37 @@ def test_write_outputs(tmp_path):
 
     cam = load_camera(paths["camera"])
     assert cam.intrinsics.width == 704 and math.isclose(cam.pose.height_m, s.camera.pose.height_m)
+
+
+def test_sea_waves_from_grid_match_full_size_maps():
+    """The sea kernel that interpolates its maps from the coarse grid gives the same pixels as the
+    one reading full-size maps made by cv2.resize of that grid (moving cameras use the former)."""
+    import cv2
+
+    from seawatch.sim._kernels import sea_waves, sea_waves_grid
+
+    rng = np.random.default_rng(0)
+    step, H, W = 16, 96, 80
+    gh, gw = -(-H // step) + 2, -(-W // step) + 2
+    grid = np.empty((gh, gw, 4), np.float32)
+    grid[..., 0] = rng.uniform(-900, 900, (gh, gw))
+    grid[..., 1] = rng.uniform(-900, 900, (gh, gw))
+    grid[..., 2] = rng.uniform(0, 1.3, (gh, gw))
+    grid[..., 3] = rng.uniform(0, 1, (gh, gw))
+    grid[1, 1, 2:] = 0  # some pixels without waves
+    tile = rng.integers(0, 256, (64, 64, 2), dtype=np.uint8)
+    big = cv2.resize(grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
+    maps = np.ascontiguousarray(big[step:step + H, step:step + W])
+    base = rng.integers(40, 200, (H, W, 3), dtype=np.uint8)
+    gain = np.array([0.5, 0.55, 0.6], np.float32)
+    glint = np.array([255.0, 255.0, 250.0], np.float32)
+    wt = np.full(4, -1.0, np.float32)
+    no_band = np.zeros((0, W, 2), np.float32)
+    r0 = 7
+    a, b = base.copy(), base.copy()
+    sea_waves(a, r0, maps[r0:], tile, gain, glint, no_band, 0, wt)
+    sea_waves_grid(b, r0, grid, step, tile, gain, glint, no_band, 0, wt)
+    assert np.array_equal(a[:r0], base[:r0]) and np.array_equal(b[:r0], base[:r0])
+    d = np.abs(a.astype(int) - b.astype(int))
+    assert (a != base).mean() > 0.5  # the waves changed most pixels
+    assert np.mean(d) < 0.05 and np.mean(d > 1) < 0.01
