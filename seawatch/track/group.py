@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from numba import njit
 from scipy.optimize import linear_sum_assignment
 
 __all__ = [
@@ -66,14 +67,44 @@ def shrink_boxes(boxes, factor: float = 0.8) -> np.ndarray:
     return out
 
 
-def _overlap_matrix(boxes: np.ndarray) -> np.ndarray:
-    x1, y1 = boxes[:, 0], boxes[:, 1]
-    x2, y2 = x1 + boxes[:, 2], y1 + boxes[:, 3]
-    iw = np.minimum(x2[:, None], x2[None, :]) - np.maximum(x1[:, None], x1[None, :])
-    ih = np.minimum(y2[:, None], y2[None, :]) - np.maximum(y1[:, None], y1[None, :])
-    ov = (iw > 0) & (ih > 0)
-    np.fill_diagonal(ov, False)
-    return ov
+@njit(cache=True)
+def _overlap_labels(boxes, shrink):
+    n = boxes.shape[0]
+    parent = np.arange(n)
+    x1 = np.empty(n)
+    y1 = np.empty(n)
+    x2 = np.empty(n)
+    y2 = np.empty(n)
+    for i in range(n):
+        w = boxes[i, 2] * shrink
+        h = boxes[i, 3] * shrink
+        x1[i] = boxes[i, 0] + (boxes[i, 2] - w) / 2
+        y1[i] = boxes[i, 1] + (boxes[i, 3] - h) / 2
+        x2[i] = x1[i] + w
+        y2[i] = y1[i] + h
+    for i in range(n):
+        for j in range(i + 1, n):
+            if min(x2[i], x2[j]) > max(x1[i], x1[j]) and min(y2[i], y2[j]) > max(y1[i], y1[j]):
+                a = i
+                while parent[a] != a:
+                    a = parent[a]
+                b = j
+                while parent[b] != b:
+                    b = parent[b]
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+    lab = -np.ones(n, np.int64)
+    root_lab = -np.ones(n, np.int64)
+    c = 0
+    for i in range(n):
+        a = i
+        while parent[a] != a:
+            a = parent[a]
+        if root_lab[a] < 0:
+            root_lab[a] = c
+            c += 1
+        lab[i] = root_lab[a]
+    return lab
 
 
 def overlap_components(boxes, shrink: float = 0.8) -> np.ndarray:
@@ -84,25 +115,8 @@ def overlap_components(boxes, shrink: float = 0.8) -> np.ndarray:
     (N,) int64, a component label per box, ``0..C-1`` in order of first appearance; boxes that
     overlap nobody are components of one.
     """
-    b = shrink_boxes(boxes, shrink)
-    n = len(b)
-    lab = -np.ones(n, np.int64)
-    if n == 0:
-        return lab
-    ov = _overlap_matrix(b)
-    c = 0
-    for i in range(n):  # a loop over tracks (a handful), not over pixels or particles
-        if lab[i] >= 0:
-            continue
-        stack = [i]
-        lab[i] = c
-        while stack:
-            j = stack.pop()
-            for k in np.flatnonzero(ov[j] & (lab < 0)):
-                lab[k] = c
-                stack.append(int(k))
-        c += 1
-    return lab
+    b = np.ascontiguousarray(np.asarray(boxes, dtype=np.float64).reshape(-1, 4))
+    return _overlap_labels(b, float(shrink))
 
 
 def hsv_histograms(image: np.ndarray, boxes, bins=HSV_BINS) -> np.ndarray:

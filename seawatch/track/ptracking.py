@@ -153,6 +153,15 @@ def _box_from(pos: np.ndarray, size: np.ndarray) -> np.ndarray:
     return np.column_stack([pos[:, 0] - size[:, 0] / 2, pos[:, 1] - size[:, 1], size[:, 0], size[:, 1]])
 
 
+def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of every box of ``a`` with every box of ``b`` (x, y, w, h)."""
+    ix = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    iy = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    inter = np.clip(ix, 0, None) * np.clip(iy, 0, None)
+    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
+    return inter / np.maximum(union, 1e-12)
+
+
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     na, nb = np.linalg.norm(a), np.linalg.norm(b)
     if na == 0 or nb == 0:
@@ -256,9 +265,10 @@ class PTrackingTracker:
         output_tentative: bool = False,
         prior_estimate: bool = True,
         kernel_frac: float = 0.08,
-        size_accel_frac: float = 0.5,
+        size_accel_frac: float = 2.0,
         size_meas_frac: float = 0.04,
         size_rate0_frac: float = 0.5,
+        birth_iou_max: float = 0.5,
         group_update: bool = True,
         process_noise_frac: float = 0.5,
         seed: int = 0,
@@ -310,6 +320,7 @@ class PTrackingTracker:
         self.size_accel_frac = float(size_accel_frac)
         self.size_meas_frac = float(size_meas_frac)
         self.size_rate0_frac = float(size_rate0_frac)
+        self.birth_iou_max = float(birth_iou_max)
         self.group_update = bool(group_update)
         self.process_noise_frac = float(process_noise_frac)
         self.seed = int(seed)
@@ -340,6 +351,7 @@ class PTrackingTracker:
         self.bank = _Bank(self.confirm_hits)
         self.particles = np.zeros((0, 2))
         self.labels = np.zeros(0, np.int64)  # uid of each particle's track, -1 none
+        self.prow = np.zeros(0, np.int64)  # bank row of each particle's track, -1 none
         self.groups: list[Group | None] = []
         self.lost: list[dict] = []
         self._t: float | None = None
@@ -451,7 +463,7 @@ class PTrackingTracker:
         self._advance(self.bank.reg, dt, self.velocity_tau_s)
         # box size: constant-rate Kalman prediction (white-noise size acceleration)
         bk = self.bank
-        q = (self.size_accel_frac * bk.size) ** 2  # (T, 2)
+        q = (self.size_accel_frac * bk.size[:, 1:2]) ** 2 * np.ones((1, 2))  # (T, 2), scaled by the height
         p = bk.sP
         p00, p01, p11 = p[:, :, 0], p[:, :, 1], p[:, :, 2]
         n00 = p00 + 2 * dt * p01 + dt * dt * p11 + q * dt ** 4 / 4
@@ -561,7 +573,7 @@ class PTrackingTracker:
             self._advance_regression(dt)
         bk.updated[:] = False
         if len(self.particles):
-            rows = bk.rows_of(self.labels)
+            rows = self.prow
             safe = np.maximum(rows, 0)
             vp = np.where(rows[:, None] >= 0, bk.vel[safe] if len(bk) else 0.0, 0.0)
             # jitter: a random walk whose speed scales with the vessel's size in the image
@@ -630,8 +642,11 @@ class PTrackingTracker:
                                 cl.weights[cls_], t, dt)
             c_track[cls_] = rows
 
-        # 7. births
+        # 7. births (not on top of a live track: a second detection of one vessel)
         born = np.flatnonzero(supported & ~consumed & (c_track < 0))
+        if len(born) and len(bk):
+            iou = _iou(_box_from(c_pos[born], c_size[born]), bk.boxes())
+            born = born[iou.max(axis=1) < self.birth_iou_max]
         if len(born):
             rows = bk.append(len(born))
             bk.uid[rows] = np.arange(self._next_uid, self._next_uid + len(born))
@@ -672,6 +687,7 @@ class PTrackingTracker:
             remap = np.full(len(bk), -1, np.int64)
             remap[keep_rows] = np.arange(len(keep_rows))
             c_track = np.where(c_track >= 0, remap[np.maximum(c_track, 0)], -1)
+            self.prow = np.where(self.prow >= 0, remap[np.maximum(self.prow, 0)], -1)
             bk.keep(alive)
         self.lost = [lt for lt in self.lost if t - lt["t_lost"] <= self.reid_memory_s]
 
@@ -748,7 +764,7 @@ class PTrackingTracker:
         self._c_sir = np.zeros(K, bool)
         if n_old == 0 or K == 0 or T == 0:
             return
-        prow = self.bank.rows_of(self.labels)
+        prow = self.prow
         lab = cl.labels[:n_old]
         ok = (prow >= 0) & (lab >= 0)
         key = lab[ok] * T + prow[ok]
@@ -928,12 +944,13 @@ class PTrackingTracker:
             owner_d = np.full(m, np.inf)
         cc = np.maximum(obs_cluster, 0)
         for gi, g in enumerate(self.groups):
-            rows = bk.rows_of(np.asarray(g.members, np.int64))
-            rows = rows[rows >= 0]
+            rows = np.flatnonzero(bk.group == gi)
             if len(rows) < 2:
                 bk.group[rows] = -1
                 self.groups[gi] = None
                 continue
+            is_member = np.zeros(len(bk), bool)
+            is_member[rows] = True
             boxes = bk.boxes(rows)
             x1, y1 = boxes[:, 0].min(), boxes[:, 1].min()
             x2, y2 = (boxes[:, 0] + boxes[:, 2]).max(), (boxes[:, 1] + boxes[:, 3]).max()
@@ -947,7 +964,7 @@ class PTrackingTracker:
             comps = overlap_components(boxes, self.group_shrink)
             still = comps.max() == 0 and t - g.formed_t_s <= self.group_max_s
             if still:
-                mine = cand[np.isin(owner[cand], rows)]
+                mine = cand[is_member[owner[cand]]]
                 pairs = []
                 if self.group_update and len(mine):
                     # as many observations as members: only "which is which" is asked, so the
@@ -956,6 +973,12 @@ class PTrackingTracker:
                     pairs = self._match_members(g, rows, z[mine], osize[mine],
                                                 mode="equal" if len(mine) == len(rows) else "fewer")
                     self._take(pairs, rows, mine, z, osize, obs_cluster, cl, c_track, t)
+                    for i, j in pairs:  # a whole (not shrunk) view renews the member's anchor
+                        u = int(bk.uid[rows[i]])
+                        a = g.anchors.get(u)
+                        if a is None or np.all(osize[mine[j]] >= 0.9 * a[2]):
+                            r = rows[i]
+                            g.anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
                 seen = {i for i, _ in pairs}
                 for k, r in enumerate(rows):  # the others coast from where they joined the group
                     a = g.anchors.get(int(bk.uid[r]))
@@ -965,7 +988,7 @@ class PTrackingTracker:
                         bk.size[r] = a[2]
                         bk.srate[r] = 0.0
                 # the observations in the region are the group's, bar those plainly another track's
-                grab = inside & ~(~np.isin(owner, rows) & (owner_d < 0.5))
+                grab = inside & ~(~is_member[owner] & (owner_d < 0.5))
                 o_taken |= grab
                 if len(consumed):
                     consumed[obs_cluster[grab & (obs_cluster >= 0)]] = True
@@ -984,10 +1007,19 @@ class PTrackingTracker:
             rest = rest[rest >= 0]
             if len(consumed):
                 consumed[rest[c_track[rest] < 0]] = True
+        self._renumber_groups()
+
+    def _renumber_groups(self) -> None:
+        """Drop dissolved groups and write each track's group index."""
+        bk = self.bank
         self.groups = [g for g in self.groups if g is not None]
-        for gi, g in enumerate(self.groups):
-            rows = bk.rows_of(np.asarray(g.members, np.int64))
-            bk.group[rows[rows >= 0]] = gi
+        bk.group[:] = -1
+        if self.groups:
+            where = {u: gi for gi, g in enumerate(self.groups) for u in g.members}
+            uids = bk.uid.tolist()
+            for r, u in enumerate(uids):
+                if u in where:
+                    bk.group[r] = where[u]
 
     def _match_members(self, g: Group, rows, c_pos, c_size, mode="dissolve") -> list[tuple[int, int]]:
         """Pairs (member index, candidate index) of a group's members and the observations
@@ -1002,8 +1034,9 @@ class PTrackingTracker:
         * ``"equal"`` (as many observations as members, the group goes on): only "which is which"
           is asked; least total cost of colour distance + position offset (in box sizes) + size
           change, no colour threshold; each pair within one box size;
-        * ``"fewer"`` (some member is hidden): only colour matches below ``colour_max_dist``
-          within half a box size of the member's prediction.
+        * ``"fewer"`` (some member is hidden): within half a box size of the member's prediction,
+          either a colour match below ``colour_max_dist`` or an observation no other member
+          could have made (farther than 1.5 of their box sizes from each of them).
         """
         bk = self.bank
         saved = [g.histograms.get(int(u)) for u in bk.uid[rows]]
@@ -1030,7 +1063,11 @@ class PTrackingTracker:
         cost = col + pos_norm + 0.25 * size_term
         ok = pos_norm <= (1.0 if mode == "equal" else 0.5)
         if mode == "fewer":
-            ok &= col < self.colour_max_dist
+            # a colour match, or an observation that can only be this member's (every other
+            # member is more than 1.5 of its box sizes away from it)
+            others = np.array([[np.delete(pos_norm[:, j], i).min(initial=np.inf) for j in range(pos_norm.shape[1])]
+                               for i in range(pos_norm.shape[0])])
+            ok &= (col < self.colour_max_dist) | (others > 1.5)
         cost = np.where(ok, cost, 1e9)
         ri, ci = linear_sum_assignment(cost)
         return [(int(i), int(j)) for i, j in zip(ri, ci) if cost[i, j] < 1e9]
@@ -1059,7 +1096,7 @@ class PTrackingTracker:
         if not self.prior_estimate or len(self.particles) == 0:
             return out
         for k, (r, j) in enumerate(zip(rows, obs)):  # a few group members per frame
-            own = self.labels == self.bank.uid[r]
+            own = self.prow == r
             if not own.any():
                 continue
             p = self.particles[own]
@@ -1101,11 +1138,7 @@ class PTrackingTracker:
                     hists[u] = bk.hist[r].copy() if bk.has_hist[r] else None
                     anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
             self.groups.append(Group(members, hists, formed, anchors))
-        self.groups = [g for g in self.groups if g is not None]
-        bk.group[:] = -1
-        for gi, g in enumerate(self.groups):
-            rows = bk.rows_of(np.asarray(g.members, np.int64))
-            bk.group[rows[rows >= 0]] = gi
+        self._renumber_groups()
 
     def _refresh_colour(self, t: float) -> None:
         """Refresh the colour model of confirmed, updated tracks whose box overlaps no other track."""
@@ -1132,10 +1165,11 @@ class PTrackingTracker:
         if n_trk == 0:
             self.particles = np.zeros((0, 2))
             self.labels = np.zeros(0, np.int64)
+            self.prow = np.zeros(0, np.int64)
             return
         grp = np.full(len(P), -1, np.int64)
         # a track without a cluster keeps its own particles (uniform weights)
-        prow = bk.rows_of(lab)
+        prow = np.concatenate([self.prow, np.full(len(P) - len(self.prow), -1, np.int64)])
         has_cluster = np.zeros(n_trk, bool)
         has_cluster[c_track[c_track >= 0]] = True
         own = (prow >= 0) & ~has_cluster[np.maximum(prow, 0)]
@@ -1164,6 +1198,7 @@ class PTrackingTracker:
             newL = np.concatenate([newL, bk.uid[empty][comp]])
         self.particles = newP
         self.labels = newL
+        self.prow = np.concatenate([g, empty[comp]]) if len(empty) else g
 
     def _output(self, t: float, det: Detections) -> Tracks:
         bk = self.bank
