@@ -8,7 +8,8 @@
   "don't care": detections on it are neither true nor false.  The first 2 s are the models'
   warm-up and are not scored.
 * Frames/s of the whole detector (conversion, model, blobs) at 704x576 and 1920x1080 on one
-  core, median over frames, beside MOG2 (``seawatch.detect.mog2``) measured in the same process.
+  core (CPU time of this process, OpenCV and Numba single-threaded), median over frames, beside
+  MOG2 (``seawatch.detect.mog2``) measured in the same process.
 """
 
 from __future__ import annotations
@@ -153,9 +154,9 @@ def _speed(ctx, width: int, height: int, n: int) -> None:
         ts = []
         for i in range(1, n + 1):
             fr = Frame(imgs[i % len(imgs)], i / scn.fps, i)
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             det.detect(fr)
-            ts.append(time.perf_counter() - t0)
+            ts.append(time.process_time() - t0)
         times[name] = float(np.median(ts))
         ctx.record(ds, name, "fps", 1.0 / times[name], "1/s", ref=REF, threads=1, frames=n)
         ctx.record(ds, name, "ms_per_frame", 1e3 * times[name], "ms", ref=REF, threads=1, frames=n)

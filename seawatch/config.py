@@ -60,22 +60,22 @@ class DetectorSettings:
     horizon_tau_s: float = 0.5  # time constant of the horizon line's smoothing
     water_roi: bool = True  # with the horizon filter, scan only below the horizon line
     # robust Kalman background model (paper C); see docs/paper_c.md
-    rk_k_sigma: float = 3.0  # foreground beyond k sqrt(P_pred + r)
-    rk_window_s: float = 2.0  # memory of the EM statistics (paper: N = 50 frames)
-    rk_alpha: float = 1.0  # Gamma prior of Ting's observation weights
-    rk_beta: float = 1.0
-    rk_hard_gate: bool = False  # freeze the background of foreground pixels
+    rk_k_sigma: float = 8.0  # foreground beyond k sqrt(P_pred + r) (paper: 3)
+    rk_window_s: float = 20.0  # memory of the EM statistics (paper: N = 50 frames)
+    rk_alpha: float = 4.0  # Gamma prior of Ting's observation weights (paper: 1, 1)
+    rk_beta: float = 4.0
+    rk_hard_gate: bool = True  # freeze the background of foreground pixels
     rk_q0: float = 1.0  # initial process variance (grey levels^2)
     rk_r0: float = 16.0  # initial observation variance (grey levels^2)
     rk_warmup_s: float = 0.4
-    rk_work_width_px: int = 960  # the model runs no wider than this (0: native size)
-    rk_colour: bool = False  # one model per BGR channel instead of grey
+    rk_work_scale: float = 0.5  # the model runs on the image downscaled by this (1: native)
+    rk_colour: bool = True  # one model per BGR channel instead of grey
     rk_open_px: int = 0
-    rk_close_px: int = 3
+    rk_close_px: int = 5
     rk_empirical_test: bool = False  # also test against the plain innovation energy (sea glint)
     rk_test_window_s: float = 20.0  # memory of that energy
     rk_persist_px: int = 0  # foreground must persist from the last frame within this (0: off)
-    rk_r_min: float = 1.0  # floor of the learned observation variance (grey levels^2)
+    rk_r_min: float = 4.0  # floor of the learned observation variance (grey levels^2)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ def test_is_a_detector():
 
 def test_moving_blob_is_found_each_frame():
     rng, base = _scene(1)
-    det = RobustKalmanDetector(work_width_px=0, min_area_px=20, warmup_s=0.5)
+    det = RobustKalmanDetector(work_scale=1.0, min_area_px=20, warmup_s=0.5)
     hits = 0
     n_eval = 0
     for i in range(60):
@@ -58,7 +58,7 @@ def test_moving_blob_is_found_each_frame():
 
 def test_lighting_ramp_is_not_foreground():
     rng, base = _scene(2)
-    det = RobustKalmanDetector(work_width_px=0, min_area_px=20, window_s=2.0)
+    det = RobustKalmanDetector(work_scale=1.0, min_area_px=20, window_s=2.0)
     n_det = 0
     fg_frac = []
     for i in range(100):
@@ -128,7 +128,7 @@ def test_hard_gate_freezes_foreground_pixels():
 
 def test_colour_and_downscaled_and_bad_frames():
     rng = np.random.default_rng(5)
-    det = RobustKalmanDetector(colour=True, work_width_px=64, min_area_px=40, warmup_s=0.0)
+    det = RobustKalmanDetector(colour=True, work_scale=0.5, min_area_px=40, warmup_s=0.0)
     base = np.full((H, W, 3), 100.0)
     for i in range(20):
         img = base + rng.normal(0, 1.5, base.shape)
@@ -148,7 +148,7 @@ def test_deterministic():
     frames = [np.clip(base + rng.normal(0, 3, base.shape), 0, 255).astype(np.uint8) for _ in range(20)]
     outs = []
     for _ in range(2):
-        det = RobustKalmanDetector(work_width_px=0)
+        det = RobustKalmanDetector(work_scale=1.0)
         for i, f in enumerate(frames):
             det.detect(Frame(f, i / FPS, i))
         outs.append(det.model.state.copy())
