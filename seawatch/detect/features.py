@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 _DESC_DIM = 128
-_MOTION_MODELS = ("similarity", "zoom_pan", "homography", "mean")
+_MOTION_MODELS = ("auto", "similarity", "zoom_pan", "homography", "homography_magsac", "mean")
 
 
 def to_grey_u8(image: np.ndarray, low_pct: float = 1.0, high_pct: float = 99.5) -> np.ndarray:
@@ -95,6 +95,8 @@ def select_keypoints(
     xy : (N, 2) keypoint positions (x, y) in pixels.
     response : (N,) detector responses.
     shape : (height, width) of the image.
+    noise_px_s : median speed relative to the camera of the stable features seen this frame
+        (most of them are static, so this measures the velocity noise; NaN when none).
     max_keypoints : int, 0 or less keeps all.
     grid_cells : (columns, rows) of the bucketing grid.
     priority : (N,) bool, optional
@@ -173,6 +175,8 @@ class FeatureSnapshot:
     n_matched : features matched this frame.
     camera_motion_ok : whether the camera motion came from enough stable matches.
     shape : (height, width) of the image.
+    noise_px_s : median speed relative to the camera of the stable features seen this frame
+        (most of them are static, so this measures the velocity noise; NaN when none).
     """
 
     t_s: float
@@ -193,6 +197,7 @@ class FeatureSnapshot:
     n_matched: int
     camera_motion_ok: bool = True
     shape: tuple[int, int] | None = None
+    noise_px_s: float = float("nan")
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -336,11 +341,16 @@ class StableFeatureExtractor:
         velocity; a longer baseline divides the keypoint localisation noise.
     history_s : float
         Length of the velocity history kept for the dissimilarity.
-    camera_motion : {"similarity", "zoom_pan", "homography", "mean"}
+    camera_motion : {"auto", "similarity", "zoom_pan", "homography", "homography_magsac", "mean"}
         Model of the camera's own motion between frames: "mean" is the paper's (the mean
         displacement of the stable features); "zoom_pan" adds the zoom, "similarity" the roll
-        too (both fitted by :func:`fit_zoom_pan`); "homography" is exact for a camera turning
-        about its centre but ill-conditioned when the static features lie along a coastline.
+        too (both fitted by :func:`fit_zoom_pan`); "homography" (RANSAC or MAGSAC++) is exact
+        for a camera turning about its centre but ill-conditioned when the static features lie
+        along a coastline; "auto" takes the similarity, or a MAGSAC++ homography when its
+        inliers span at least ``homography_min_span`` of the image in both directions and it
+        explains the matches better.
+    homography_min_span : float
+        See "auto" above (fraction of the width and of the height, 5th to 95th percentile).
     ransac_px : float
         Inlier threshold of the robust fit (working-image pixels).
     min_camera_matches : int
@@ -354,6 +364,17 @@ class StableFeatureExtractor:
         Refine the positions of matched features to sub-pixel accuracy with Lucas-Kanade (not
         in the paper: CenSurE positions are whole pixels, and that quantisation noise is as
         large as the motion of a slow boat between two frames).
+    descriptor_scale : float
+        The SIFT descriptor is computed over the keypoint's size times this.  SIFT's window
+        grows with the size (about 10.6 times the radius, so a 12-pixel CenSurE keypoint reads
+        a 130-pixel square), and its cost with the window's area; a smaller support is cheaper
+        and describes a small boat with less of the water around it.
+    descriptor_width_px : int
+        Width of the image the SIFT descriptors are computed on (the working image downscaled
+        when wider; positions stay those of the working image).  0: the working image.  SIFT
+        builds six Gaussian layers of the whole image before describing anything (8.5 ms at
+        640x480 on one core, against 2 ms at 320x240), so this is what keeps the stage at
+        25 frames/s at 640x480.
     prior_radius_px : float
         Keypoints within this distance (working-image pixels) of where an active feature is
         expected (its position carried by the previous frame's camera motion) are described
@@ -398,6 +419,9 @@ class StableFeatureExtractor:
         subpixel_min_eig: float = 1e-3,
         work_width_px: int = 0,
         prior_radius_px: float = 3.0,
+        descriptor_scale: float = 1.0,
+        descriptor_width_px: int = 320,
+        homography_min_span: float = 0.4,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -430,6 +454,11 @@ class StableFeatureExtractor:
         self.subpixel_min_eig = float(subpixel_min_eig)
         self.work_width_px = int(work_width_px)
         self.prior_radius_px = float(prior_radius_px)
+        if descriptor_scale <= 0:
+            raise ValueError(f"features: descriptor_scale must be > 0, got {descriptor_scale}")
+        self.descriptor_scale = float(descriptor_scale)
+        self.descriptor_width_px = int(descriptor_width_px)
+        self.homography_min_span = float(homography_min_span)
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
             int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
@@ -503,12 +532,22 @@ class StableFeatureExtractor:
                 d, _ = cKDTree(pred).query(xy, k=1, distance_upper_bound=self.prior_radius_px)
                 priority = np.isfinite(d)
         keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
-        kps = [kps[i] for i in keep]
-        kps, desc = self._sift.compute(grey, kps)
+        # describe on a smaller copy when asked: SIFT's fixed cost (its Gaussian layers) and
+        # its per-keypoint cost both scale with the pixels it reads
+        ds = 1.0
+        img = grey
+        if 0 < self.descriptor_width_px < grey.shape[1]:
+            ds = self.descriptor_width_px / grey.shape[1]
+            img = cv2.resize(grey, (self.descriptor_width_px, max(1, int(round(grey.shape[0] * ds)))),
+                             interpolation=cv2.INTER_AREA)
+        sc = self.descriptor_scale * ds
+        kps = [cv2.KeyPoint((kps[i].pt[0] + 0.5) * ds - 0.5, (kps[i].pt[1] + 0.5) * ds - 0.5,
+                            kps[i].size * sc, kps[i].angle, kps[i].response, kps[i].octave) for i in keep]
+        kps, desc = self._sift.compute(img, kps)
         if desc is None or not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
-        xy = np.array([k.pt for k in kps], np.float64)
-        size = np.array([k.size for k in kps], np.float64)
+        xy = (np.array([k.pt for k in kps], np.float64) + 0.5) / ds - 0.5
+        size = np.array([k.size for k in kps], np.float64) / sc
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
     def _match(self, desc: np.ndarray, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -544,15 +583,18 @@ class StableFeatureExtractor:
         mean_h[:2, 2] = np.mean(d - s, axis=0) if self.camera_motion == "mean" else np.median(d - s, axis=0)
         if self.camera_motion == "mean" or len(s) < 4:
             return mean_h, ok and self.camera_motion == "mean"
-        if self.camera_motion in ("zoom_pan", "similarity"):
-            h, inl = fit_zoom_pan(s, d, self.ransac_px, seed=self._n, rotation=self.camera_motion == "similarity")
+        if self.camera_motion in ("zoom_pan", "similarity", "auto"):
+            h, inl = fit_zoom_pan(s, d, self.ransac_px, seed=self._n, rotation=self.camera_motion != "zoom_pan")
             if inl.sum() < 3:
                 return mean_h, False
+            if self.camera_motion == "auto":
+                h = self._maybe_homography(s, d, h, inl)
         else:
             s32, d32 = s.astype(np.float32), d.astype(np.float32)
             if len(s) < 8:
                 return mean_h, False
-            h, inl = cv2.findHomography(s32, d32, cv2.RANSAC, self.ransac_px, maxIters=200, confidence=0.99)
+            method = cv2.USAC_MAGSAC if self.camera_motion == "homography_magsac" else cv2.RANSAC
+            h, inl = cv2.findHomography(s32, d32, method, self.ransac_px, maxIters=500, confidence=0.995)
             if h is None or not np.all(np.isfinite(h)) or inl is None or inl.sum() < 4:
                 return mean_h, False
         h = h / h[2, 2]
@@ -561,6 +603,34 @@ class StableFeatureExtractor:
         if not (0.5 < det < 2.0) or abs(h[2, 0]) > 1e-2 or abs(h[2, 1]) > 1e-2:
             return mean_h, False
         return h, ok
+
+    def _maybe_homography(self, s: np.ndarray, d: np.ndarray, h_sim: np.ndarray, inl: np.ndarray) -> np.ndarray:
+        """The similarity, or a homography where the static features cover enough of the image
+        to pin its perspective terms down and it explains the matches better.
+
+        A camera turning about its centre moves the image by a homography; over a wide field of
+        view the similarity misses its perspective part (the image moves faster at the edges),
+        and neighbouring static features then share a false residual motion.  But a homography
+        fitted to features along a thin coastline is unconstrained away from it.
+        """
+        if len(s) < 12 or self._shape is None:
+            return h_sim
+        hh, hin = cv2.findHomography(s.astype(np.float32), d.astype(np.float32), cv2.USAC_MAGSAC,
+                                     self.ransac_px, maxIters=500, confidence=0.995)
+        if hh is None or not np.all(np.isfinite(hh)) or hin is None or hin.sum() < 12:
+            return h_sim
+        pts = s[hin.reshape(-1).astype(bool)]
+        h_img, w_img = self._shape[0] * self._scale, self._shape[1] * self._scale
+        span = np.percentile(pts, 95, axis=0) - np.percentile(pts, 5, axis=0)
+        if span[0] < self.homography_min_span * w_img or span[1] < self.homography_min_span * h_img:
+            return h_sim
+        thr2 = self.ransac_px**2
+
+        def cost(h):
+            e = _apply_h(h, s) - d
+            return float(np.minimum(np.sum(e * e, axis=1), thr2).sum())
+
+        return hh / hh[2, 2] if cost(hh) < cost(h_sim) else h_sim
 
     def _refine(self, prev: np.ndarray, grey: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
         """Sub-pixel positions of matched features: pyramidal Lucas-Kanade from their previous
@@ -718,6 +788,10 @@ class StableFeatureExtractor:
         hist = self._vel[act][:, order] * k
         sc = np.diag([self._scale, self._scale, 1.0])
         h_src = np.linalg.inv(sc) @ h @ sc
+        st = self._conf[act] >= self.stable_confidence
+        vnow = hist[st, -1] if len(act) else np.zeros((0, 2))
+        vnow = vnow[np.isfinite(vnow[:, 0])]
+        noise = float(np.median(np.hypot(vnow[:, 0], vnow[:, 1]))) if len(vnow) >= 5 else float("nan")
         return FeatureSnapshot(
             t_s=float(t_s),
             frame_index=int(fi),
@@ -737,4 +811,5 @@ class StableFeatureExtractor:
             n_matched=int(n_matched),
             camera_motion_ok=bool(motion_ok),
             shape=self._shape,
+            noise_px_s=noise,
         )

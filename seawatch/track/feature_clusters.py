@@ -373,7 +373,8 @@ class ClusterParams:
     radius_px: float = 50.0
     p_px: float = 3.0
     frame_interval_s: float = 0.04
-    min_speed_px_s: float = 5.0
+    min_speed_px_s: float = 2.5
+    noise_factor: float = 0.0
     w_cap: float = 15.0
     min_features: int = 2
     label_memory_s: float = 2.0
@@ -393,7 +394,9 @@ class FeatureClusterer:
     params : ClusterParams
         ``dmax``, ``alpha``, ``w_link``, ``radius_px`` (the paper's parameters), ``p_px`` and
         ``frame_interval_s`` (the magnitude sigmoid, see :func:`motion_dissimilarity`),
-        ``min_speed_px_s`` (see :func:`frame_edges`),
+        ``min_speed_px_s`` and ``noise_factor`` (velocity samples slower than the larger of
+        ``min_speed_px_s`` and ``noise_factor`` times the running median speed of the stable
+        features, most of which are static, count as static; see :func:`frame_edges`),
         ``w_cap``, ``min_features``, ``label_memory_s`` (see :class:`AffinityClusters`),
         ``confirm_s`` (age from which a cluster is a confirmed track), ``box_pad`` (the box is
         the features' extent grown by ``box_pad`` times each keypoint's radius).
@@ -407,16 +410,29 @@ class FeatureClusterer:
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s)
         self.last_labels = np.zeros(0, np.int64)
+        self.noise_px_s = float("nan")
 
     def reset(self) -> None:
         self.graph.reset()
+        self.noise_px_s = float("nan")
+
+    @property
+    def min_speed_px_s(self) -> float:
+        """The speed below which a velocity sample counts as static now."""
+        p = self.params
+        if not np.isfinite(self.noise_px_s):
+            return p.min_speed_px_s
+        return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
 
     def update(self, snap: FeatureSnapshot) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters."""
         p = self.params
+        nz = getattr(snap, "noise_px_s", float("nan"))
+        if np.isfinite(nz):  # running estimate of the static features' velocity noise
+            self.noise_px_s = nz if not np.isfinite(self.noise_px_s) else 0.9 * self.noise_px_s + 0.1 * nz
         st = np.flatnonzero(snap.stable)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
-                                p.min_speed_px_s)
+                                self.min_speed_px_s)
         # indices into the snapshot
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
         self.last_labels = labels
@@ -506,7 +522,7 @@ class StableFeatureTracker:
             alpha=float(getattr(settings, "sf_alpha", 3.0)),
             w_link=float(getattr(settings, "sf_w_link", 1.0)),
             radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
-            min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 5.0)),
+            min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 2.5)),
         )
         return cls(ext, params)
 
