@@ -379,7 +379,7 @@ class ClusterParams:
     min_features: int = 2
     label_memory_s: float = 2.0
     confirm_s: float = 0.4
-    box_pad: float = 0.5
+    box_pad: float = 1.0
 
 
 class FeatureClusterer:
