@@ -223,4 +223,5 @@ def test_clusterer_ignores_unstable_features():
     c = FeatureClusterer()
     _, tracks = c.update(snapshot(xy, [right] * 3, stable=np.array([True, True, False])))
     assert c.last_labels.tolist() == [1, 1, -1]
-    assert tracks.boxes[0].tolist() == pytest.approx([9, 9, 22, 12])
+    # default box: the features' extent grown by each keypoint's radius (size 4 -> 2 px)
+    assert tracks.boxes[0].tolist() == pytest.approx([8, 8, 24, 14])
