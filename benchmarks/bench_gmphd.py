@@ -201,19 +201,10 @@ def score(scn, est, max_reports: int | None = None) -> dict:
 # ------------------------------------------------------------------------------ end to end
 def sensors_for_multicam(mc, *, sigma_az_deg=0.25, sigma_el_deg=0.1, pd=0.7, clutter_per_scan=3.0):
     """PHD sensors for the simulator's multi-camera views, in the world's ENU frame."""
-    import pymap3d
-
     lat0, lon0 = mc.origin
-    out = []
-    for v in mc.views:
-        cam = v.camera
-        p = cam.pose
-        e, n, _ = pymap3d.geodetic2enu(p.lat_deg, p.lon_deg, 0.0, lat0, lon0, 0.0)
-        K = cam.intrinsics
-        out.append(PHDSensor(v.camera_id, (float(e), float(n), float(p.height_m)), p.pan_deg,
-                             p.tilt_deg, K.hfov_deg, K.vfov_deg, sigma_az_deg, sigma_el_deg, pd,
-                             clutter_per_scan, camera=cam))
-    return out
+    return [PHDSensor.from_camera(v.camera_id, v.camera, (lat0, lon0, 0.0), sigma_az_deg=sigma_az_deg,
+                                  sigma_el_deg=sigma_el_deg, pd=pd, clutter_per_scan=clutter_per_scan)
+            for v in mc.views]
 
 
 def run_end_to_end(seed: int = 0, duration_s: float = 40.0, report_period_s: float = 3.0,

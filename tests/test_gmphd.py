@@ -226,3 +226,19 @@ def test_from_config():
     tr = GMPHDTracker.from_config(cfg, [PHDSensor("a", (0.0, 0.0, 10.0))])
     assert tr.filter.birth_range_m.tolist() == [2000.0, 4000.0] and tr.filter.penalise is False
     assert tr.filter.max_components == 100 and tr.filter.merge_threshold == 4.0
+
+
+def test_sensor_from_camera_fov():
+    from seawatch.camera import CameraModel, Intrinsics
+    from seawatch.types import CameraPose
+
+    import pymap3d
+
+    lat0, lon0 = 50.0, -1.0
+    lat, lon, _ = pymap3d.enu2geodetic(500.0, 0.0, 0.0, lat0, lon0, 0.0)
+    cam = CameraModel(Intrinsics.from_fov(60.0, 640, 480), CameraPose(lat_deg=lat, lon_deg=lon,
+                                                                      height_m=15.0, pan_deg=90.0))
+    s = PHDSensor.from_camera("c", cam, (lat0, lon0, 0.0))
+    np.testing.assert_allclose(s.pos, [500.0, 0.0, 15.0], atol=0.05)
+    assert s.hfov_deg == pytest.approx(60.0)
+    assert s.in_fov(np.array([90.0, 125.0, 270.0]), np.array([-1.0, -1.0, -1.0])).tolist() == [True, False, False]

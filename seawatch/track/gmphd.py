@@ -101,6 +101,22 @@ class PHDSensor:
         kw.update(changes)
         return cls(**kw)
 
+    @classmethod
+    def from_camera(cls, sensor_id: str, camera, origin_geodetic: tuple[float, float, float], *,
+                    sigma_az_deg: float = 0.25, sigma_el_deg: float = 0.1, pd: float = 0.7,
+                    clutter_per_scan: float = 3.0) -> "PHDSensor":
+        """A sensor from a :class:`~seawatch.camera.CameraModel`, placed in the ENU frame whose
+        origin is ``origin_geodetic`` (lat, lon, alt of the fusion centre's frame); the field of
+        view is tested through the camera model."""
+        import pymap3d
+
+        p = camera.pose
+        e, n, u = pymap3d.geodetic2enu(p.lat_deg, p.lon_deg, 0.0, *origin_geodetic)
+        K = camera.intrinsics
+        return cls(sensor_id, (float(e), float(n), float(u) + float(p.height_m)), p.pan_deg,
+                   p.tilt_deg, K.hfov_deg, K.vfov_deg, sigma_az_deg, sigma_el_deg, pd,
+                   clutter_per_scan, camera=camera)
+
     @property
     def pos(self) -> np.ndarray:
         return np.asarray(self.position_m, np.float64).reshape(3)
@@ -271,38 +287,56 @@ def birth_from_azel(
 
 # -------------------------------------------------------------------------------- merging
 @nb.njit(cache=True)
-def _merge_kernel(w, m, P, Pinv, labels, threshold):  # pragma: no cover - compiled
+def _merge_kernel(w, m, P, labels, threshold):  # pragma: no cover - compiled
     J = w.shape[0]
     n = m.shape[1]
     order = np.argsort(-w)
     used = np.zeros(J, np.bool_)
+    have_inv = np.zeros(J, np.bool_)
+    Pinv = np.empty((J, n, n))
+    # d' P^-1 d >= |d|^2 / lambda_max(P) >= |d|^2 / trace(P): a cheap test that skips most pairs
+    tr = np.empty(J)
+    for i in range(J):
+        t = 0.0
+        for a in range(n):
+            t += P[i, a, a]
+        tr[i] = t
     out_w = np.empty(J)
     out_m = np.empty((J, n))
     out_P = np.empty((J, n, n))
     out_l = np.empty(J, np.int64)
     d = np.empty(n)
+    members = np.empty(J, np.int64)
     k = 0
     for oi in range(J):
         j = order[oi]
         if used[j]:
             continue
         # members: every unused component within the threshold under its own covariance
+        nm = 0
         wsum = 0.0
         mm = np.zeros(n)
-        members = []
         for i in range(J):
             if used[i]:
                 continue
+            dd = 0.0
             for a in range(n):
                 d[a] = m[i, a] - m[j, a]
+                dd += d[a] * d[a]
+            if i != j and dd > threshold * tr[i]:
+                continue
+            if not have_inv[i]:
+                Pinv[i] = np.linalg.inv(0.5 * (P[i] + P[i].T))
+                have_inv[i] = True
             dist = 0.0
             for a in range(n):
                 s = 0.0
                 for b in range(n):
                     s += Pinv[i, a, b] * d[b]
                 dist += d[a] * s
-            if dist <= threshold:
-                members.append(i)
+            if dist <= threshold or i == j:
+                members[nm] = i
+                nm += 1
                 used[i] = True
                 wsum += w[i]
                 for a in range(n):
@@ -310,7 +344,8 @@ def _merge_kernel(w, m, P, Pinv, labels, threshold):  # pragma: no cover - compi
         for a in range(n):
             mm[a] /= wsum
         PP = np.zeros((n, n))
-        for i in members:
+        for q in range(nm):
+            i = members[q]
             for a in range(n):
                 d[a] = mm[a] - m[i, a]
             for a in range(n):
@@ -332,10 +367,9 @@ def merge_components(w, m, P, labels, threshold: float = 4.0):
     """
     if len(w) <= 1:
         return w, m, P, labels
-    Pinv = np.linalg.inv(0.5 * (P + np.swapaxes(P, 1, 2)))
     return _merge_kernel(np.ascontiguousarray(w, np.float64), np.ascontiguousarray(m, np.float64),
-                         np.ascontiguousarray(P, np.float64), np.ascontiguousarray(Pinv),
-                         np.ascontiguousarray(labels, np.int64), float(threshold))
+                         np.ascontiguousarray(P, np.float64), np.ascontiguousarray(labels, np.int64),
+                         float(threshold))
 
 
 # --------------------------------------------------------------------------------- the filter
@@ -530,11 +564,12 @@ class GMPHDFilter:
         az, el = azel_from_points(X, pos)  # (Ji, 13)
         az = az[:, :1] + _wrap(az - az[:, :1])  # unwrap around the centre point
         Z = np.stack([az, el], axis=-1)  # (Ji, 13, 2)
-        zhat = np.einsum("s,jsd->jd", wm, Z)
+        zhat = wm @ Z  # (Ji, 2)
         dZ = Z - zhat[:, None, :]
         dX = X - m[:, None, :]
-        S = np.einsum("s,jsa,jsb->jab", wc, dZ, dZ) + sensor.R
-        C = np.einsum("s,jsa,jsb->jab", wc, dX, dZ)  # (Ji, 6, 2)
+        dZw = dZ * wc[None, :, None]
+        S = np.swapaxes(dZw, 1, 2) @ dZ + sensor.R
+        C = np.swapaxes(dX, 1, 2) @ dZw  # (Ji, 6, 2)
         det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
         Si = np.empty_like(S)
         Si[:, 0, 0] = S[:, 1, 1] / det
@@ -546,7 +581,8 @@ class GMPHDFilter:
         # likelihood of every detection under every component: (M, Ji)
         nu = z[:, None, :] - zhat[None, :, :]
         nu[..., 0] = _wrap(nu[..., 0])
-        d2 = np.einsum("mja,jab,mjb->mj", nu, Si, nu)
+        d2 = (nu[..., 0] ** 2 * Si[None, :, 0, 0] + 2.0 * nu[..., 0] * nu[..., 1] * Si[None, :, 0, 1]
+              + nu[..., 1] ** 2 * Si[None, :, 1, 1])
         q = np.exp(-0.5 * d2) / (2.0 * np.pi * np.sqrt(det))[None, :]
         num = pd * w[None, :] * q
         den = sensor.clutter_density + num.sum(axis=1)
@@ -569,7 +605,7 @@ class GMPHDFilter:
         explained = wz.sum(axis=1)
         # keep only pairs that would survive pruning (identical to pruning after the update)
         mi, ji = np.nonzero(wz >= self.prune_threshold)
-        mu = m[ji] + np.einsum("kab,kb->ka", K[ji], nu[mi, ji])
+        mu = m[ji] + (K[ji] @ nu[mi, ji][:, :, None])[:, :, 0]
         self.w = np.concatenate([w_missed, wz[mi, ji]])
         self.m = np.concatenate([self.m, mu])
         self.P = np.concatenate([self.P, Pu[ji]])
