@@ -155,13 +155,18 @@ def fill_polys(canvas, polys, nvert, colours):
 
 @numba.njit(cache=True, nogil=True)
 def first_water_rows(hi_map, water_top_y):
-    """For each column, the first row whose pixel is water (``H`` when none); see :func:`sea_waves`."""
+    """For each column, the first row whose pixel is water (``H`` when none); see :func:`sea_waves`.
+
+    Scans row by row (memory order) and stops once every column has found its water."""
     h = hi_map.shape[0]
     w = hi_map.shape[1]
     nwt = water_top_y.shape[0]
     out = np.full(w, h, np.int64)
-    for x in range(w):
-        for y in range(h):
+    left = w
+    for y in range(h):
+        for x in range(w):
+            if out[x] < h:
+                continue
             xi = int(hi_map[y, x, 0])
             if xi < 0:
                 xi = 0
@@ -169,7 +174,9 @@ def first_water_rows(hi_map, water_top_y):
                 xi = nwt - 1
             if hi_map[y, x, 1] > water_top_y[xi]:
                 out[x] = y
-                break
+                left -= 1
+        if left == 0:
+            break
     return out
 
 

@@ -45,6 +45,9 @@ from seawatch.sim.world import World
 __all__ = ["RenderOptions", "RenderResult", "Renderer"]
 
 _GRID_PX = 16
+_TILE_PX = 128  # tiles of the swaying-camera panoramas (a multiple of _GRID_PX)
+_PANO_MAX_SPAN_DEG = 4.0  # pan/tilt range up to which a swaying camera renders from panoramas
+_PANO_OVERSAMPLE = 1.25  # panorama pixels per image pixel (at the image centre)
 
 
 @dataclass(frozen=True)
@@ -114,6 +117,42 @@ def _bgr_tuple(c, n: int):
     return tuple(float(x) for x in np.asarray(c, float)[:n])
 
 
+def _upsample_grid(a: np.ndarray, gw: int, step: int, size: tuple[int, int], r0: int = 0) -> np.ndarray:
+    """Bilinear upsampling of coarse-grid channels ``a`` (gh, gw, K) to rows ``r0:size[0]`` of an
+    image whose grid step is ``step`` (the coarse grid has one padding sample around the image:
+    sample ``(i, j)`` sits at pixel ``((j - 0.5) * step - 0.5, (i - 0.5) * step - 0.5)``)."""
+    a = a.astype(np.float32)
+    k0 = max(0, r0 // step - 1)
+    sub = a[k0:]
+    big = cv2.resize(sub, (gw * step, sub.shape[0] * step), interpolation=cv2.INTER_LINEAR)
+    o = step - k0 * step
+    return big[r0 + o:size[0] + o, step:step + size[1]]
+
+
+def _sea_range_m(el_rad: np.ndarray, height_m: float, r_eff_m: float) -> np.ndarray:
+    """Ground distance (m) to where rays of elevation ``el_rad`` meet the curved sea (NaN above
+    the horizon); the same geometry as :meth:`CameraModel.pixel_to_sea_enu`."""
+    h, R = height_m, r_eff_m
+    wz = np.sin(el_rad)
+    b = wz * (h + R)
+    disc = b * b - ((h + R) ** 2 - R * R)
+    with np.errstate(invalid="ignore"):
+        t = -b - np.sqrt(disc)
+    t = np.where((disc >= 0) & (t > 0), t, np.nan)
+    return R * np.arctan2(t * np.cos(el_rad), h + R + t * wz)
+
+
+class _PanoLevel:
+    """Panoramas (background plus animated sea, one per wave frame) at one zoom step."""
+
+    __slots__ = ("ppd", "f_px", "shape", "water_top_y", "frames", "bg", "bg_built")
+
+    def __init__(self, ppd, f_px, shape, water_top_y):
+        self.ppd, self.f_px, self.shape, self.water_top_y = ppd, f_px, shape, water_top_y
+        self.bg = self.bg_built = None  # the static background (no waves), built tile by tile
+        self.frames: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # wave frame -> (image, built tiles)
+
+
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
@@ -147,6 +186,12 @@ class Renderer:
         Memory for caching the animated sea of steady (fixed) views, one image per wave frame.
     max_roll_deg : float
         Largest roll the camera will take (widens the panoramas).
+    panorama : bool or None
+        Render sky, coast and animated sea of a camera that only sways around one direction (a
+        pan and tilt range of at most a few degrees, not zero) from azimuth/elevation panoramas,
+        one per animated-sea frame, built lazily in tiles: a frame is then one ``cv2.remap``.
+        None chooses from ``pan_range_deg`` and ``tilt_range_deg``; False renders every frame
+        directly.
     """
 
     def __init__(
@@ -167,6 +212,7 @@ class Renderer:
         world_to_camera: np.ndarray | None = None,
         wave_field: WaveField | None = None,
         sea_cache_mb: float = 256.0,
+        panorama: bool | None = None,
     ):
         if not (16 <= width <= 8192 and 16 <= height <= 8192):
             raise ValueError(f"Renderer: image size {width}x{height} out of range")
@@ -202,6 +248,9 @@ class Renderer:
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
         self.waves = wave_field or WaveField(seed=self.seed + 7)
         self.world_to_camera = None if world_to_camera is None else np.asarray(world_to_camera, float)
+        span = max(pr[1] - pr[0], tr[1] - tr[0])
+        self.use_panorama = bool(0.0 < span <= _PANO_MAX_SPAN_DEG) if panorama is None else bool(panorama)
+        self._levels: dict[int, _PanoLevel] = {}
         self._views: OrderedDict[tuple, _View] = OrderedDict()
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
@@ -248,20 +297,10 @@ class Renderer:
                 self._cache_bytes -= sum(a.nbytes for a in old.sea_cache.values())
         return v
 
-    def _build_view(self, cam: CameraModel) -> _View:
-        W, H, s = self.W, self.H, _GRID_PX
-        gw, gh = -(-W // s) + 2, -(-H // s) + 2
-        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
-        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
-        U, V = np.meshgrid(uc, vc)
-        az, el = cam.pixel_to_azel(U, V)
-        az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
-        pano = self.pano
-        lox, loy = pano.lo_xy(az_rel, el)
-        hix, hiy = pano.hi_xy(az_rel, el)
-        # sea-surface texture coordinates, compressed beyond r0 so they stay bounded
-        e, n, r = cam.pixel_to_sea_enu(U, V)
-        f_px = float(cam.intrinsics.fy)
+    def _sea_params(self, az, r, f_px: float):
+        """Wave-texture coordinates (texels), wave contrast and glint strength of sea points seen
+        along azimuths ``az`` (deg) at ground ranges ``r`` (m; NaN above the horizon), for a camera
+        of focal length ``f_px`` (the waves fade out where they get smaller than a few pixels)."""
         h = self.height_m
         lam = 6.0
         r_a = math.sqrt(f_px * h * lam / 3.0)
@@ -285,16 +324,26 @@ class Renderer:
         if not o.waves:
             amp = amp * 0
             gl = gl * 0
+        return tx, ty, amp, gl
+
+    def _build_view(self, cam: CameraModel) -> _View:
+        W, H, s = self.W, self.H, _GRID_PX
+        gw, gh = -(-W // s) + 2, -(-H // s) + 2
+        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
+        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
+        U, V = np.meshgrid(uc, vc)
+        az, el = cam.pixel_to_azel(U, V)
+        az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
+        pano = self.pano
+        lox, loy = pano.lo_xy(az_rel, el)
+        hix, hiy = pano.hi_xy(az_rel, el)
+        # sea-surface texture coordinates, compressed beyond r0 so they stay bounded
+        e, n, r = cam.pixel_to_sea_enu(U, V)
+        f_px = float(cam.intrinsics.fy)
+        tx, ty, amp, gl = self._sea_params(az, r, f_px)
 
         def up(step, size, chans, r0=0):
-            """Bilinear upsampling of coarse-grid channels to rows ``r0:size[0]`` of an image whose
-            grid step is ``step`` (the coarse grid has one padding sample around the image)."""
-            a = np.stack(chans, axis=-1).astype(np.float32)
-            k0 = max(0, r0 // step - 1)
-            sub = a[k0:]
-            big = cv2.resize(sub, (gw * step, sub.shape[0] * step), interpolation=cv2.INTER_LINEAR)
-            o = step - k0 * step
-            return big[r0 + o:size[0] + o, step:step + size[1]]
+            return _upsample_grid(np.stack(chans, axis=-1), gw, step, size, r0)
 
         view = _View()
         view.f_px = f_px
@@ -337,6 +386,143 @@ class Renderer:
         wr = first_water_rows(hi_map, self._water_top_y) + m0  # b1 where none in the band rows
         view.water_row = np.where(wr >= b1, b1 if r0_ < H else H, wr).astype(np.float64)
         return view
+
+    # ------------------------------------------------------- swaying cameras: panoramas
+    def _level(self, fy: float) -> _PanoLevel:
+        """The panorama level (zoom steps of sqrt(2)) for a camera of focal length ``fy``."""
+        k = int(round(2.0 * math.log2(fy / self.ref_camera.intrinsics.fy)))
+        L = self._levels.get(k)
+        if L is None:
+            f_px = self.ref_camera.intrinsics.fy * 2.0 ** (k / 2.0)
+            ppd = f_px * math.pi / 180.0 * _PANO_OVERSAMPLE
+            p = self.pano
+            shape = (max(2, int(math.ceil((p.el_max - p.el_min) * ppd))),
+                     max(2, int(math.ceil((p.az_max - p.az_min) * ppd))))
+            az_rel = p.az_min + (np.arange(shape[1]) + 0.5) / ppd
+            wt = ((p.el_max - p.water_top_at(az_rel)) * ppd - 0.5).astype(np.float32)
+            L = self._levels[k] = _PanoLevel(ppd, f_px, shape, wt)
+        return L
+
+    def _pano_hi_map(self, L: _PanoLevel, y0: int, y1: int, x0: int, x1: int):
+        """Coordinates in the sharp band of the rows ``0 .. b1`` of level ``L``'s panorama region
+        ``[y0:y1, x0:x1]`` (the sea kernel's water test; rows below ``b1`` are all water), and the
+        band's rows ``b0 .. b1`` within them."""
+        p, ppd = self.pano, L.ppd
+        w = x1 - x0
+        xs = (np.arange(x0, x1, dtype=np.float64) + 0.5) / ppd  # degrees from az_min / el_max
+        ys = (np.arange(y0, y1, dtype=np.float64) + 0.5) / ppd
+        hix = (xs * p.ppd_hi - 0.5).astype(np.float32)
+        hiy = ((p.band_el_max - p.el_max + ys) * p.ppd_hi - 0.5).astype(np.float32)
+        band = np.nonzero((hiy >= -1.0) & (hiy <= p.hi.shape[0]))[0]
+        b1 = int(band[-1]) + 1 if len(band) else (y1 - y0 if len(hiy) and hiy[-1] < 0 else 0)
+        b0 = int(band[0]) if len(band) else b1
+        hi_map = np.empty((b1, w, 2), np.float32)
+        hi_map[..., 0] = hix[None, :]
+        hi_map[..., 1] = hiy[:b1, None]
+        return hi_map, b0, b1
+
+    def _pano_bg_region(self, L: _PanoLevel, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+        """Sky, clouds, coast and sea base of level ``L``'s panorama, pixels ``[y0:y1, x0:x1]``."""
+        p, ppd = self.pano, L.ppd
+        h, w = y1 - y0, x1 - x0
+        xs = (np.arange(x0, x1, dtype=np.float64) + 0.5) / ppd  # degrees from az_min / el_max
+        ys = (np.arange(y0, y1, dtype=np.float64) + 0.5) / ppd
+        lox = (xs * p.ppd_lo - 0.5).astype(np.float32)
+        loy = (ys * p.ppd_lo - 0.5).astype(np.float32)
+        out = cv2.remap(p.lo, np.broadcast_to(lox[None, :], (h, w)).copy(),
+                        np.broadcast_to(loy[:, None], (h, w)).copy(), cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REPLICATE).reshape(h, w, self.C)
+        hi_map, b0, b1 = self._pano_hi_map(L, y0, y1, x0, x1)
+        if b1 > b0:
+            dst = np.ascontiguousarray(out[b0:b1])
+            res = cv2.remap(p.hi, np.ascontiguousarray(hi_map[b0:b1]), None, cv2.INTER_LINEAR,
+                            dst=dst[..., 0] if self.C == 1 else dst, borderMode=cv2.BORDER_TRANSPARENT)
+            out[b0:b1] = res.reshape(dst.shape)
+        return out
+
+    def _pano_region(self, L: _PanoLevel, fi: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+        """Pixels ``[y0:y1, x0:x1]`` of level ``L``'s panorama at wave frame ``fi`` (-1: no waves).
+
+        Every pixel depends only on its panorama position (the sea grid is anchored to panorama
+        multiples of the grid step), so regions built in any order tile seamlessly."""
+        p, ppd, s, T = self.pano, L.ppd, _GRID_PX, _TILE_PX
+        if L.bg is None:
+            L.bg = np.zeros(L.shape + (self.C,), np.uint8)
+            L.bg_built = np.zeros((-(-L.shape[0] // T), -(-L.shape[1] // T)), bool)
+        bg, oy, ox = self._tiles(L.bg, L.bg_built, y0 // T, -(-y1 // T), x0 // T, -(-x1 // T),
+                                 lambda a0, a1, b0, b1: self._pano_bg_region(L, a0, a1, b0, b1))
+        out = bg[y0 - oy:y1 - oy, x0 - ox:x1 - ox].copy()
+        h, w = out.shape[:2]
+        r0 = max(0, int(math.floor(float(L.water_top_y[max(0, x0 - 2):x1 + 2].min()))) - y0 - 1)  # no water above
+        if fi < 0 or r0 >= h:
+            return out
+        hi_map = self._pano_hi_map(L, y0, y1, x0, x1)[0]
+        gw, gh = -(-w // s) + 2, -(-h // s) + 2
+        gx = x0 + (np.arange(gw) - 0.5) * s - 0.5  # grid samples at panorama positions
+        gy = y0 + (np.arange(gh) - 0.5) * s - 0.5
+        az_rel = p.az_min + (gx + 0.5) / ppd
+        el = p.el_max - (gy + 0.5) / ppd
+        az = np.broadcast_to((self.ref_az + az_rel[None, :]) % 360.0, (gh, gw))
+        r = np.broadcast_to(_sea_range_m(np.radians(el)[:, None], self.height_m, self.ref_camera.r_eff_m), (gh, gw))
+        tx, ty, amp, gl = self._sea_params(az, r, L.f_px)
+        grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
+        sea_waves_grid(out, r0, grid, s, self.waves.frame_by_index(fi), self._gain, self._glint_col,
+                       hi_map, 0, self._water_top_y)
+        return out
+
+    def _tiles(self, store, built, ty0, ty1, tx0, tx1, make):
+        """Build the missing tiles of ``store`` among tiles ``[ty0:ty1, tx0:tx1]`` (one region:
+        the bounding box of the missing ones) with ``make(y0, y1, x0, x1)``.  Returns ``(image,
+        oy, ox)``: ``store`` (0, 0), or over the memory budget a region built for this call only."""
+        T = _TILE_PX
+        ph, pw = store.shape[:2]
+        miss = ~built[ty0:ty1, tx0:tx1]
+        if not miss.any():
+            return store, 0, 0
+        rr, cc = np.nonzero(miss)
+        a0, a1 = ty0 + int(rr.min()), ty0 + int(rr.max()) + 1
+        b0, b1 = tx0 + int(cc.min()), tx0 + int(cc.max()) + 1
+        nb = int(np.count_nonzero(~built[a0:a1, b0:b1])) * T * T * self.C
+        if self._cache_bytes + nb > self.sea_cache_mb * 1e6:
+            oy, ox = ty0 * T, tx0 * T
+            return make(oy, min(ph, ty1 * T), ox, min(pw, tx1 * T)), oy, ox
+        y0, y1, x0, x1 = a0 * T, min(ph, a1 * T), b0 * T, min(pw, b1 * T)
+        store[y0:y1, x0:x1] = make(y0, y1, x0, x1)
+        built[a0:a1, b0:b1] = True
+        self._cache_bytes += nb
+        return store, 0, 0
+
+    def _pano_frame(self, cam: CameraModel, t_s: float):
+        """Background and sea of a swaying camera's frame: one remap of a cached panorama."""
+        W, H, s = self.W, self.H, _GRID_PX
+        L = self._level(float(cam.intrinsics.fy))
+        gw, gh = -(-W // s) + 2, -(-H // s) + 2
+        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
+        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
+        U, V = np.meshgrid(uc, vc)
+        az, el = cam.pixel_to_azel(U, V)
+        p = self.pano
+        az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
+        px = (az_rel - p.az_min) * L.ppd - 0.5
+        py = (p.el_max - el) * L.ppd - 0.5
+        ph, pw = L.shape
+        T = _TILE_PX
+        tx0 = max(0, int(math.floor(px.min())) - 2) // T
+        tx1 = min(pw - 1, int(math.ceil(px.max())) + 2) // T + 1
+        ty0 = max(0, int(math.floor(py.min())) - 2) // T
+        ty1 = min(ph - 1, int(math.ceil(py.max())) + 2) // T + 1
+        fi = self.waves.frame_index(t_s) if self.options.waves else -1
+        entry = L.frames.get(fi)
+        if entry is None:  # virtual memory: pages are only touched tile by tile
+            entry = L.frames[fi] = (np.zeros((ph, pw, self.C), np.uint8),
+                                    np.zeros((-(-ph // T), -(-pw // T)), bool))
+        src, oy, ox = self._tiles(entry[0], entry[1], ty0, ty1, tx0, tx1,
+                                  lambda y0, y1, x0, x1: self._pano_region(L, fi, y0, y1, x0, x1))
+        m = _upsample_grid(np.stack((px - ox, py - oy), axis=-1), gw, s, (H, W))
+        water_row = first_water_rows(m, L.water_top_y[ox:] - np.float32(oy)).astype(np.float64)
+        m1, m2 = cv2.convertMaps(m, None, cv2.CV_16SC2)
+        img = cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return img.reshape(H, W, self.C), water_row
 
     # --------------------------------------------------------------------- vessels
     def _vessel_points(self, t_s: float):
@@ -411,8 +597,12 @@ class Renderer:
         """
         if cam.intrinsics.width != self.W or cam.intrinsics.height != self.H:
             cam = cam.with_intrinsics(cam.intrinsics.scaled_to(self.W, self.H))
-        view = self._view(cam)
-        img = self._sea_image(view, t_s)
+        if self.use_panorama:
+            img, water_row = self._pano_frame(cam, t_s)
+        else:
+            view = self._view(cam)
+            img = self._sea_image(view, t_s)
+            water_row = view.water_row
         label = np.zeros((self.H, self.W), np.uint8)
         rows = []
         if draw_vessels and len(self.world.vessels):
@@ -438,7 +628,7 @@ class Renderer:
             full_px=np.array([r[5] for r in rows], np.int64),
             depth_m=np.array([r[6] for r in rows], np.float64),
             label=label,
-            water_row=view.water_row,
+            water_row=water_row,
         )
 
     def _draw_vessels(self, img, label, t_s, cam: CameraModel):

@@ -130,7 +130,11 @@ class WaveField:
 
     def frame(self, t_s: float) -> np.ndarray:
         """The ``(size, size, 2)`` uint8 texture at time ``t_s``."""
-        i = self.frame_index(t_s)
+        return self.frame_by_index(self.frame_index(t_s))
+
+    def frame_by_index(self, i: int) -> np.ndarray:
+        """The ``(size, size, 2)`` uint8 texture of animation frame ``i`` (0 .. n_frames - 1)."""
+        i = int(i) % self.n_frames
         tex = self._cache.get(i)
         if tex is None:
             sx, sy = self._slopes(i * self.loop_s / self.n_frames)
