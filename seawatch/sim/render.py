@@ -657,12 +657,15 @@ class Renderer:
             order.append((math.hypot(cx, cy), k, cx, cy))
         order.sort(reverse=True)  # far first
         # ---- pass 1: wakes and reflections on the water (they never cover a vessel's pixels)
+        near = []
         for dist, k, _, _ in order:
             sl = slice(bounds[k], bounds[k + 1])
-            if u[sl].max() < -0.5 * W or u[sl].min() > 1.5 * W or v[sl].min() > H:
-                continue  # far outside the view: its wake and reflection cannot show
-            if o.wakes:
-                self._draw_wake(img, k, t_s, cam)
+            if not (u[sl].max() < -0.5 * W or u[sl].min() > 1.5 * W or v[sl].min() > H):
+                near.append(k)  # else far outside the view: its wake and reflection cannot show
+        wakes = self._wake_quads(near, t_s, cam) if o.wakes and near else {}
+        for k in near:
+            if k in wakes:
+                self._draw_wake(img, wakes[k], t_s)
             if o.reflections:
                 msl = slice(nv + bounds[k], nv + bounds[k + 1])
                 self._draw_reflection(img, k, u[msl], v[msl], depth[msl])
@@ -782,60 +785,74 @@ class Renderer:
         blend_reflection(img, iy0, ix0, iy1 - iy0, ix1 - ix0, canvas, iy0 - y0, ix0 - x0, a0, top, depth_px, amp,
                          float(k))
 
-    def _draw_wake(self, img, k, t_s, cam: CameraModel):
-        """Foam of the turbulent wake, the Kelvin arms and the bow wave, on the sea surface."""
-        vessel = self.world.vessels[k]
+    def _wake_quads(self, ks, t_s, cam: CameraModel) -> dict:
+        """Projected wake quads of vessels ``ks``, all vessels at once: ``k -> (u (q, 4), v (q, 4),
+        alpha (q,))``; the foam of the turbulent wake, the Kelvin arms and the bow wave."""
         tau = _WAKE_TAU
-        e, n, course, speed = vessel.state(t_s - tau)
-        sp = float(speed[0])
-        if sp < 0.3:
-            return
-        L, B = vessel.length_m, vessel.beam_m
-        c = np.radians(course)
+        rows = []
+        for k in ks:
+            vessel = self.world.vessels[k]
+            e, n, course, speed = vessel.state(t_s - tau)
+            if float(speed[0]) >= 0.3:
+                rows.append((k, e, n, course, float(speed[0]), vessel.length_m, vessel.beam_m))
+        if not rows:
+            return {}
+        e = np.array([r[1] for r in rows])  # (V, len(tau))
+        n = np.array([r[2] for r in rows])
+        c = np.radians(np.array([r[3] for r in rows]))
+        sp = np.array([r[4] for r in rows])[:, None]
+        L = np.array([r[5] for r in rows], float)[:, None]
+        B = np.array([r[6] for r in rows], float)[:, None]
         fx, fy = np.sin(c), np.cos(c)
         px, py = -fy, fx  # port
         trav = sp * tau
         nq = len(tau) - 1
-        Q = np.empty((3 * nq + 1, 4, 2))
-        al = np.empty(3 * nq + 1)
+        V = len(rows)
+        Q = np.empty((V, 3 * nq + 1, 4, 2))
+        al = np.empty((V, 3 * nq + 1))
 
         def strip(q0, le, ln_, re, rn):
-            Q[q0:q0 + nq, 0, 0], Q[q0:q0 + nq, 0, 1] = le[:-1], ln_[:-1]
-            Q[q0:q0 + nq, 1, 0], Q[q0:q0 + nq, 1, 1] = le[1:], ln_[1:]
-            Q[q0:q0 + nq, 2, 0], Q[q0:q0 + nq, 2, 1] = re[1:], rn[1:]
-            Q[q0:q0 + nq, 3, 0], Q[q0:q0 + nq, 3, 1] = re[:-1], rn[:-1]
+            Q[:, q0:q0 + nq, 0, 0], Q[:, q0:q0 + nq, 0, 1] = le[:, :-1], ln_[:, :-1]
+            Q[:, q0:q0 + nq, 1, 0], Q[:, q0:q0 + nq, 1, 1] = le[:, 1:], ln_[:, 1:]
+            Q[:, q0:q0 + nq, 2, 0], Q[:, q0:q0 + nq, 2, 1] = re[:, 1:], rn[:, 1:]
+            Q[:, q0:q0 + nq, 3, 0], Q[:, q0:q0 + nq, 3, 1] = re[:, :-1], rn[:, :-1]
 
         # turbulent wake behind the stern
         se, sn = e - 0.48 * L * fx, n - 0.48 * L * fy
-        wt = 0.45 * B * np.sqrt(1 + 0.08 * trav / max(B, 1.0))
+        wt = 0.45 * B * np.sqrt(1 + 0.08 * trav / np.maximum(B, 1.0))
         strip(0, se + px * wt, sn + py * wt, se - px * wt, sn - py * wt)
-        fade = float(np.clip(sp / 7.0, 0.2, 0.75)) * np.exp(-tau / 6.0)
-        a_seg = 0.5 * (fade[:-1] + fade[1:])
-        al[:nq] = a_seg
+        fade = np.clip(sp / 7.0, 0.2, 0.75) * np.exp(-tau / 6.0)
+        a_seg = 0.5 * (fade[:, :-1] + fade[:, 1:])
+        al[:, :nq] = a_seg
         # Kelvin arms, spreading from the bow at 19.5 degrees
         be, bn = e + 0.45 * L * fx, n + 0.45 * L * fy
         kel = 0.3536 * (trav + 0.3 * L) + 0.3 * B  # tan(19.47 deg) = 0.3536
         aw = 0.15 * B + 0.03 * trav
         for j, side in enumerate((-1.0, 1.0)):
             ce_, cn_ = be + side * px * kel, bn + side * py * kel
-            strip(nq * (1 + j), ce_ - side * px * aw, cn_ - side * py * aw, ce_ + side * px * aw, cn_ + side * py * aw)
-            al[nq * (1 + j):nq * (2 + j)] = 0.6 * a_seg
+            strip(nq * (1 + j), ce_ - side * px * aw, cn_ - side * py * aw, ce_ + side * px * aw,
+                  cn_ + side * py * aw)
+            al[:, nq * (1 + j):nq * (2 + j)] = 0.6 * a_seg
         # bow wave
-        b0e, b0n = be[0] + 0.05 * L * fx[0], bn[0] + 0.05 * L * fy[0]
-        f0, f1, p0, p1 = fx[0], fy[0], px[0], py[0]
-        Q[-1] = ((b0e, b0n), (b0e - 0.25 * L * f0 + 0.55 * B * p0, b0n - 0.25 * L * f1 + 0.55 * B * p1),
-                 (b0e - 0.3 * L * f0, b0n - 0.3 * L * f1),
-                 (b0e - 0.25 * L * f0 - 0.55 * B * p0, b0n - 0.25 * L * f1 - 0.55 * B * p1))
-        al[-1] = min(0.9, 1.2 * fade[0])
-        Q = Q.reshape(-1, 2)
-        ce, cn = self._to_cam(Q[:, 0], Q[:, 1])
+        L1, B1 = L[:, 0], B[:, 0]
+        f0, f1, p0, p1 = fx[:, 0], fy[:, 0], px[:, 0], py[:, 0]
+        b0e, b0n = be[:, 0] + 0.05 * L1 * f0, bn[:, 0] + 0.05 * L1 * f1
+        Q[:, -1, 0, 0], Q[:, -1, 0, 1] = b0e, b0n
+        Q[:, -1, 1, 0] = b0e - 0.25 * L1 * f0 + 0.55 * B1 * p0
+        Q[:, -1, 1, 1] = b0n - 0.25 * L1 * f1 + 0.55 * B1 * p1
+        Q[:, -1, 2, 0], Q[:, -1, 2, 1] = b0e - 0.3 * L1 * f0, b0n - 0.3 * L1 * f1
+        Q[:, -1, 3, 0] = b0e - 0.25 * L1 * f0 - 0.55 * B1 * p0
+        Q[:, -1, 3, 1] = b0n - 0.25 * L1 * f1 - 0.55 * B1 * p1
+        al[:, -1] = np.minimum(0.9, 1.2 * fade[:, 0])
+        ce, cn = self._to_cam(Q[..., 0], Q[..., 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
-        ok = (dd > 0.5).reshape(-1, 4).all(axis=1)
-        if not ok.any():
-            return
-        uu, vv = uu.reshape(-1, 4)[ok], vv.reshape(-1, 4)[ok]
-        al = al[ok]
-        W, H, C = self.W, self.H, self.C
+        ok = (dd > 0.5).all(axis=-1)  # (V, q)
+        return {r[0]: (uu[i][ok[i]], vv[i][ok[i]], al[i][ok[i]]) for i, r in enumerate(rows) if ok[i].any()}
+
+    def _draw_wake(self, img, quads, t_s):
+        """Blend one vessel's projected wake quads (from :meth:`_wake_quads`) as foam."""
+        uu, vv, al = quads
+        W, H = self.W, self.H
         x0 = int(max(0, math.floor(uu.min()) - 1))
         y0 = int(max(0, math.floor(vv.min()) - 1))
         x1 = int(min(W, math.ceil(uu.max()) + 2))
@@ -845,8 +862,7 @@ class Renderer:
         alpha3 = np.zeros((y1 - y0, x1 - x0, 1), np.float32)
         polys = np.stack([uu - x0, vv - y0], axis=-1)
         fill_polys(alpha3, polys, np.full(len(al), 4, np.int64), al[:, None].astype(np.float64))
-        alpha = alpha3[..., 0]
-        blend_foam(img, y0, x0, alpha, self._foam_col, self._foam, int(7 * t_s))
+        blend_foam(img, y0, x0, alpha3[..., 0], self._foam_col, self._foam, int(7 * t_s))
 
     # ---------------------------------------------------------------------- sensor
     def _finish(self, img: np.ndarray, frame_seed: int) -> np.ndarray:
