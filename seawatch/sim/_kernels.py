@@ -256,6 +256,10 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
         wx[x] = f - int(f)
     row = np.empty((gw, 4), np.float32)
     drow = np.empty((gw, 4), np.float32)
+    zero = np.float32(0.0)
+    c255 = np.float32(255.0)
+    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
+    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
     for y in range(r0, h):
         f = (y + 0.5) * inv_s + 0.5
         i = int(f)
@@ -304,6 +308,14 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
                 gl = (w00 * np.float32(tile[y0, x0, 1]) + w01 * np.float32(tile[y0, x1, 1])
                       + w10 * np.float32(tile[y1, x0, 1]) + w11 * np.float32(tile[y1, x1, 1]))
                 gg = gl * g * inv
+            if c == 3:  # unrolled (the common colour case): no loop over a run-time channel count
+                v0 = np.float32(out[y, x, 0]) + d * g0 + gg * l0 + half
+                v1 = np.float32(out[y, x, 1]) + d * g1 + gg * l1 + half
+                v2 = np.float32(out[y, x, 2]) + d * g2 + gg * l2 + half
+                out[y, x, 0] = np.uint8(min(max(v0, zero), c255))
+                out[y, x, 1] = np.uint8(min(max(v1, zero), c255))
+                out[y, x, 2] = np.uint8(min(max(v2, zero), c255))
+                continue
             for k in range(c):
                 v = np.float32(out[y, x, k]) + d * gain[k] + gg * glint_col[k] + half
                 if v < 0.0:
