@@ -28,6 +28,7 @@ def boat_sequence(name, n=12, spread=1.0, seed=0):
     """
     rng = np.random.default_rng(seed)
     boat0 = np.array([[100, 100], [115, 104], [108, 112], [122, 110]], float)
+    boat0[1:] += rng.normal(0, 2.0, (3, 2))  # a different boat per sequence: boxes (and IoU) differ
     bg = np.array([[300, 50], [320, 60], [340, 55], [310, 70]], float)
     snaps, gt = [], {}
     hist = np.full((8, 6, 2), np.nan)
@@ -60,7 +61,8 @@ def test_run_clustering_finds_the_boat():
     pred = run_clustering(seq.snapshots, ClusterParams(confirm_s=0.0))
     ids, boxes = pred[11]
     assert ids.tolist() == [1]
-    assert boxes[0, 0] == pytest.approx(99 + 50 * 11 / FPS, abs=1e-6)
+    # the leftmost feature, less the keypoint radius (size 4)
+    assert boxes[0, 0] == pytest.approx(100 - 2 + 50 * 11 / FPS, abs=1e-6)
 
 
 def test_sweep_scores_settings_and_anova_tells_them_apart():
@@ -80,8 +82,11 @@ def test_sweep_scores_settings_and_anova_tells_them_apart():
     assert np.allclose(mw[1], 1.0) and np.all(mw[0] < 0.6)
     a = welch_anova(res)
     assert set(a) == {"dmax", "w_link"}
-    # the Dmax = 0 group has no variance: no test; with two varying groups it can be computed
-    assert np.isnan(a["dmax"]["F"]) and a["dmax"]["k"] == 3 and a["dmax"]["n"] == 3
+    # the Dmax = 0 group has no variance and is left out of Welch's test; the others enter it
+    assert a["dmax"]["k"] == 3 and a["dmax"]["n"] == 3 and a["dmax"]["k_tested"] == 2
+    assert np.isfinite(a["dmax"]["F"])
+    # Wlink = 50 scores 1 everywhere: one group left, no test
+    assert a["w_link"]["k_tested"] == 1 and np.isnan(a["w_link"]["F"])
     assert res.best("dmax") == pytest.approx(0.31) or res.best("dmax") == pytest.approx(1.0)
 
 

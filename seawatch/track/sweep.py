@@ -209,10 +209,12 @@ def sweep(sequences: list[SweepSequence], grid: dict[str, list[float]] | None = 
 def welch_anova(result: SweepResult) -> dict:
     """Welch's ANOVA per parameter: does mean METE differ between its settings?
 
-    Groups are the settings of the parameter, observations the sequences' mean METE.  Returns
-    (and stores in ``result.anova``) ``param -> {"F", "p", "k", "n"}`` (``k`` settings, ``n``
-    sequences); F and p are NaN when it cannot be computed (fewer than two sequences, or no
-    variance within the groups).
+    Groups are the settings of the parameter, observations the sequences' mean METE.  Welch's
+    test weighs each group by the inverse of its variance, so a setting whose sequences all
+    score the same (e.g. ``Dmax = 0``: nothing is ever found, METE 1 everywhere) cannot enter it
+    and is left out.  Returns (and stores in ``result.anova``) ``param -> {"F", "p", "k",
+    "k_tested", "n"}`` (``k`` settings, ``k_tested`` of them in the test, ``n`` sequences); F and
+    p are NaN when fewer than two settings can be tested (or fewer than two sequences).
     """
     from scipy import stats
 
@@ -220,13 +222,13 @@ def welch_anova(result: SweepResult) -> dict:
     for p in sorted({r["param"] for r in result.rows}):
         values, seqs, m = result.table(p)
         groups = [row[np.isfinite(row)] for row in m]
-        groups = [g for g in groups if len(g) >= 2]
+        groups = [g for g in groups if len(g) >= 2 and np.var(g) > 0]
         f = pv = float("nan")
-        if len(groups) >= 2 and all(np.var(g) > 0 for g in groups):
+        if len(groups) >= 2:
             with np.errstate(all="ignore"):
                 r = stats.f_oneway(*groups, equal_var=False)
             f, pv = float(r.statistic), float(r.pvalue)
-        out[p] = {"F": f, "p": pv, "k": int(len(values)), "n": int(len(seqs))}
+        out[p] = {"F": f, "p": pv, "k": int(len(values)), "k_tested": int(len(groups)), "n": int(len(seqs))}
     result.anova = out
     return out
 
