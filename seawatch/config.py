@@ -65,6 +65,7 @@ class DetectorSettings:
     rk_alpha: float = 4.0  # Gamma prior of Ting's observation weights (paper: 1, 1)
     rk_beta: float = 4.0
     rk_hard_gate: bool = True  # freeze the background of foreground pixels
+    rk_gate_max_s: float = 10.0  # ... for at most this long (then absorbed)
     rk_q0: float = 1.0  # initial process variance (grey levels^2)
     rk_r0: float = 16.0  # initial observation variance (grey levels^2)
     rk_warmup_s: float = 0.4

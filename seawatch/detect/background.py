@@ -52,14 +52,15 @@ __all__ = ["RobustKalmanBackground", "RobustKalmanDetector", "robust_kalman_step
 # 0 x, 1 P, 2 a, 3 q, 4 r, then the forgotten EM sufficient statistics 5 s_xx = sum <x_{t-1}^2>,
 # 6 s_da = sum (<x_t x_{t-1}> - <x_{t-1}^2>), 7 s_q = sum <(x_t - a x_{t-1})^2>,
 # 8 s_r = sum w <(y_t - x_t)^2>, 9 s_e = sum (y_t - x_pred)^2 (unweighted innovation energy, for the
-# optional empirical test variance).  The forgotten frame count n is the same for every pixel.
-_NSTATE = 10
+# optional empirical test variance), 10 seconds the pixel has been foreground without a break (for
+# the time limit of hard gating).  The forgotten frame count n is the same for every pixel.
+_NSTATE = 11
 _F = np.float32
 
 
 @nb.njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test, lam_e, n_e_old,
-               a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
+               dt, gate_max_s, a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
     n_ch, n_pix = y.shape
     k2 = k_sigma * k_sigma
     ab = alpha + _F(0.5)
@@ -79,6 +80,7 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test,
         SQ = st[7, c]
         SR = st[8, c]
         SE = st[9, c]
+        AGE = st[10, c]
         Y = y[c]
         for i in range(n_pix):
             x = X[i]
@@ -100,8 +102,12 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test,
             fgc = e2 > k2 * var
             # Ting et al. (2007) observation weight: posterior mean of the Gamma-distributed weight
             w = ab / (beta + (e2 + pp) * (half / r))
-            if hard_gate and fgc:
-                w = _F(0.0)
+            if fgc:
+                AGE[i] += dt
+                if hard_gate and AGE[i] <= gate_max_s:
+                    w = _F(0.0)
+            else:
+                AGE[i] = _F(0.0)
             # Kalman update with observation variance r / w
             wp = w * pp
             kg = wp / (wp + r)
@@ -148,6 +154,8 @@ def robust_kalman_step(
     empirical_test: bool = False,
     forget_test: float = 0.99,
     n_test_frames: float = 1.0,
+    dt_s: float = 0.04,
+    gate_max_s: float = math.inf,
     a_range: tuple[float, float] = (0.95, 1.05),
     q_range: tuple[float, float] = (1e-3, 400.0),
     r_range: tuple[float, float] = (0.25, 400.0),
@@ -169,7 +177,10 @@ def robust_kalman_step(
     alpha, beta : float
         Gamma prior of the observation weights (Ting et al. 2007).
     hard_gate : bool
-        Do not update the background of foreground pixels at all.
+        Do not update the background of foreground pixels at all (for at most ``gate_max_s``
+        of uninterrupted foreground, after which the pixel is updated as usual).
+    dt_s, gate_max_s : float
+        Time since the last step, and the time limit of hard gating.
     empirical_test : bool
         Test against ``max(P_pred + r, mean innovation energy)``, the energy forgotten with
         ``forget_test`` per step and ``n_test_frames`` its forgotten frame count before this step.
@@ -190,7 +201,7 @@ def robust_kalman_step(
     fg = np.empty(h * w, np.uint8)
     _rk_kernel(yy, state, fg, _F(n_frames), _F(k_sigma), _F(forget), _F(alpha), _F(beta),
                bool(hard_gate), bool(empirical_test), _F(forget_test), _F(n_test_frames),
-               _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
+               _F(dt_s), _F(min(gate_max_s, 1e30)), _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
                _F(r_range[0]), _F(r_range[1]))
     return fg.reshape(h, w)
 
@@ -208,6 +219,10 @@ class RobustKalmanBackground:
         Gamma prior of Ting's observation weights.
     hard_gate : bool
         Freeze the background of foreground pixels.
+    gate_max_s : float
+        Hard gating lasts at most this long on a pixel that stays foreground; then the pixel is
+        updated as usual, so a vessel that stops, or a ghost left by a wrong background, is
+        absorbed instead of frozen for ever.
     q0, r0 : float
         Initial process and observation variances (intensity units squared); ``P`` starts at
         ``r0``, ``a`` at 1.
@@ -232,7 +247,8 @@ class RobustKalmanBackground:
     def __init__(self, *, k_sigma: float = 3.0, window_s: float = 2.0, alpha: float = 1.0,
                  beta: float = 1.0, hard_gate: bool = False, q0: float = 1.0, r0: float = 16.0,
                  warmup_s: float = 0.4, prior_frames: float = 3.0, empirical_test: bool = False,
-                 test_window_s: float = 10.0, r_min: float = 1.0, a_range=(0.95, 1.05),
+                 test_window_s: float = 10.0, r_min: float = 1.0, gate_max_s: float = math.inf,
+                 a_range=(0.95, 1.05),
                  q_range=(1e-3, 400.0), r_max: float = 900.0) -> None:
         if window_s <= 0:
             raise ValueError(f"RobustKalmanBackground: window_s must be positive, got {window_s}")
@@ -249,6 +265,7 @@ class RobustKalmanBackground:
         self.prior_frames = float(prior_frames)
         self.empirical_test = bool(empirical_test)
         self.test_window_s = float(test_window_s)
+        self.gate_max_s = float(gate_max_s)
         self.a_range = tuple(map(float, a_range))
         self.q_range = tuple(map(float, q_range))
         self.r_range = (float(r_min), float(r_max))
@@ -318,7 +335,7 @@ class RobustKalmanBackground:
         mask = robust_kalman_step(
             y, self.state, self.n_frames, k_sigma=self.k_sigma, forget=lam, alpha=self.alpha, beta=self.beta,
             hard_gate=self.hard_gate, empirical_test=self.empirical_test, forget_test=lam_e,
-            n_test_frames=n_e_old, a_range=self.a_range,
+            n_test_frames=n_e_old, dt_s=dt, gate_max_s=self.gate_max_s, a_range=self.a_range,
             q_range=self.q_range, r_range=self.r_range,
         )
         if float(t_s) - self._t0 < self.warmup_s:
@@ -330,13 +347,14 @@ class RobustKalmanDetector:
     """Detector (``name = "robust_kalman"``): robust Kalman background model + 8-connected blobs.
 
     The defaults are those tuned on the simulator's fixed-camera scenes (``docs/paper_c.md``):
-    ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard gating, colour, half
+    ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard gating for at most 10 s, colour, half
     resolution, ``r >= 4``, a 5 px closing.  :class:`RobustKalmanBackground` keeps the paper's
     (``k = 3``, N = 50 frames, ``alpha = beta = 1``, no gating).
 
     Parameters
     ----------
-    k_sigma, window_s, alpha, beta, hard_gate, q0, r0, warmup_s, empirical_test, test_window_s, r_min
+    k_sigma, window_s, alpha, beta, hard_gate, gate_max_s, q0, r0, warmup_s, empirical_test,
+    test_window_s, r_min
         See :class:`RobustKalmanBackground`.
     work_scale : float
         The model runs on the image area-averaged by this factor (0.5: a quarter of the pixels,
@@ -364,11 +382,13 @@ class RobustKalmanDetector:
                  warmup_s: float = 0.4, work_scale: float = 0.5, colour: bool = True,
                  min_area_px: float = 30.0, max_area_frac: float = 0.25, open_px: int = 0,
                  close_px: int = 5, empirical_test: bool = False, test_window_s: float = 20.0,
-                 persist_px: int = 0, r_min: float = 4.0, camera=None) -> None:
+                 persist_px: int = 0, r_min: float = 4.0, gate_max_s: float = 10.0,
+                 camera=None) -> None:
         self.model = RobustKalmanBackground(k_sigma=k_sigma, window_s=window_s, alpha=alpha,
                                             beta=beta, hard_gate=hard_gate, q0=q0, r0=r0,
                                             warmup_s=warmup_s, empirical_test=empirical_test,
-                                            test_window_s=test_window_s, r_min=r_min)
+                                            test_window_s=test_window_s, r_min=r_min,
+                                            gate_max_s=gate_max_s)
         if not 0.0 < work_scale <= 1.0:
             raise ValueError(f"RobustKalmanDetector: work_scale must be in (0, 1], got {work_scale}")
         self.work_scale = float(work_scale)
@@ -393,7 +413,8 @@ class RobustKalmanDetector:
             work_scale=d.rk_work_scale, colour=d.rk_colour, min_area_px=d.min_area_px,
             max_area_frac=d.max_area_frac, open_px=d.rk_open_px, close_px=d.rk_close_px,
             empirical_test=d.rk_empirical_test, test_window_s=d.rk_test_window_s,
-            persist_px=d.rk_persist_px, r_min=d.rk_r_min, camera=camera,
+            persist_px=d.rk_persist_px, r_min=d.rk_r_min, gate_max_s=d.rk_gate_max_s,
+            camera=camera,
         )
 
     def reset(self) -> None:
