@@ -347,9 +347,9 @@ class RobustKalmanDetector:
     """Detector (``name = "robust_kalman"``): robust Kalman background model + 8-connected blobs.
 
     The defaults are those tuned on the simulator's fixed-camera scenes (``docs/paper_c.md``):
-    ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard gating for at most 10 s, colour, half
-    resolution, ``r >= 4``, a 5 px closing.  :class:`RobustKalmanBackground` keeps the paper's
-    (``k = 3``, N = 50 frames, ``alpha = beta = 1``, no gating).
+    ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard gating for at most 10 s,
+    colour, half resolution, ``r >= 4``, a 5 px closing.  :class:`RobustKalmanBackground` keeps
+    the paper's (``k = 3``, N = 50 frames, ``alpha = beta = 1``, no gating).
 
     Parameters
     ----------
