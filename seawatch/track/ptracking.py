@@ -131,14 +131,6 @@ class _Bank:
             setattr(self, name, getattr(self, name)[mask])
         self.hit_t = self.hit_t[mask]
 
-    def rows_of(self, uids: np.ndarray) -> np.ndarray:
-        """Row of each uid, -1 when the uid is not alive."""
-        if len(self.uid) == 0:
-            return np.full(len(uids), -1, np.int64)
-        r = np.searchsorted(self.uid, uids)
-        r = np.clip(r, 0, len(self.uid) - 1)
-        return np.where(self.uid[r] == uids, r, -1)
-
     def boxes(self, rows=None) -> np.ndarray:
         pos = self.pos if rows is None else self.pos[rows]
         size = self.size if rows is None else self.size[rows]
@@ -173,40 +165,65 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
 class PTrackingTracker:
     """PTracking local layer: multi-clustered particle filter with group tracking (paper A).
 
+    Pixel parameters (``*_px``, ``*_px_s``) are for a 704-pixel-wide image and scale with the
+    width of the frames; ``*_frac`` parameters are fractions of each vessel's box size.
+
     Parameters
     ----------
     num_particles : int
         Particle budget (paper: 500).  A share ``inject_frac`` is drawn around the observations
-        each frame, the rest is split evenly among the tracks (at least ``min_particles_per_track``
-        each).
+        each frame, the rest is split evenly among the tracks (at least
+        ``min_particles_per_track`` each).
     delta_px : float
-        KClusterize radius at a 704-pixel-wide image (paper: 20 px), scaled with the image width.
+        KClusterize radius (paper: 20 px).
+    kernel_frac : float
+        Scale of the likelihood kernel ``exp(-|(p - z) / sigma|)`` of an observation, per axis,
+        as a fraction of its box width and height (bounded by 0.5 px and ``kernel_sigma_px``).
     kernel_sigma_px, inject_sigma_px : float
-        Scale of the ``exp(-d / sigma)`` likelihood kernel, and spread of the particles drawn
-        around each observation (px at 704 wide).
-    process_noise_px_s : float
-        Particle jitter per second of prediction (px/s at 704 wide; at least 0.5 px per step).
+        Upper bounds of the kernel scale and of the spread of the particles drawn around an
+        observation.
+    process_noise_frac : float
+        Particle jitter, a random walk whose speed is this many box sizes (geometric mean of
+        width and height) per second, between 2 px/s and ``process_noise_px_s``.
     inject_frac : float
-        Share of the budget drawn around the observations each frame.
+        Share of the budget drawn around the observations each frame (new vessels are found
+        there; a track whose own particles lose its vessel is re-seeded from them).
     min_particles_per_track : int
     gate_px : float
         Largest distance from a track's predicted position to a cluster it is associated with
-        (px at 704 wide; default ``3 * delta_px``).
+        (default ``3 * delta_px``).
     confirm_hits : int
         Sightings a tentative track needs ...
     confirm_window_s : float
-        ... within this time to be confirmed; a tentative track unseen this long is deleted.
+        ... within this time to be confirmed (widened to 1.5 frame intervals per sighting at low
+        frame rates); a tentative track unseen this long is deleted.
     max_coast_s : float
         A confirmed track without an observation for this long is deleted (and remembered for
         re-identification for ``reid_memory_s``).
     velocity_tau_s : float
-        Time constant of the exponentially weighted regression that gives each track's velocity.
-    size_tau_s : float
-        Time constant of the smoothing of the box size.
+        Time constant of the exponentially weighted regression over the recent positions that
+        gives each track's velocity.
+    size_accel_frac, size_meas_frac, size_rate0_frac : float
+        The box size (carried along) is a constant-rate Kalman filter per axis: white-noise
+        acceleration of ``size_accel_frac`` box heights per s^2, measurement noise of
+        ``size_meas_frac`` of the size, initial rate uncertainty ``size_rate0_frac`` of the
+        size per second.
+    prior_estimate : bool
+        Sequential importance resampling on each track's own particles (the posterior mean of
+        its predicted particles is its position); off: the cluster mean, observation-drawn
+        particles included.
+    birth_iou_max : float
+        A cluster whose box overlaps a live track's by this IoU or more starts no track.
     group_shrink : float
         Boxes shrunk to this fraction of their size that overlap form a group (paper: 0.8).
     colour_max_dist : float
-        Bhattacharyya distance below which two colour models match (paper: 0.35).
+        Weighted H/S/V Bhattacharyya distance below which two colour models match (paper: 0.35).
+    group_update : bool
+        Update group members from observations that can only be theirs (as many observations
+        as members, or a colour match); off: members always coast, as in the paper.
+    group_hold_s : float
+        A group member unobserved for less than this carries on from its last view (a partial
+        occlusion); longer, it coasts from its last whole view, with that box (hidden).
     group_max_s : float
         A group lasting longer than this is dissolved (its members then re-identified).
     hist_interval_s : float
@@ -215,10 +232,11 @@ class PTrackingTracker:
         How long a lost track can be re-identified.
     reid_angle_deg, reid_speed_ratio : float
         The paper's association tests against a lost track: the displacement since it was lost
-        must point along its velocity (angle below ``reid_angle_deg``) at a speed within
+        and the new track's velocity must point along its velocity (angle below
+        ``reid_angle_deg``, widened by the velocity's uncertainty) at a speed within
         ``reid_speed_ratio`` (relative) of its speed.
     min_speed_px_s : float
-        Below this speed (px/s at 704 wide) a track counts as still and only closeness is tested.
+        Below this speed a track counts as still and only closeness is tested.
     ego_motion : {"none", "flow", "ptz"}
         Compensate a moving camera: from sparse optical flow between frames, or from the frames'
         PTZ states through ``camera`` (a :class:`seawatch.camera.CameraModel`).
@@ -250,7 +268,6 @@ class PTrackingTracker:
         confirm_window_s: float = 1.0,
         max_coast_s: float = 2.0,
         velocity_tau_s: float = 1.0,
-        size_tau_s: float = 0.3,
         group_shrink: float = 0.8,
         colour_max_dist: float = 0.35,
         group_max_s: float = 15.0,
@@ -264,13 +281,14 @@ class PTrackingTracker:
         image_width_px: float = 0.0,
         output_tentative: bool = False,
         prior_estimate: bool = True,
-        kernel_frac: float = 0.08,
+        kernel_frac: float = 0.05,
         size_accel_frac: float = 2.0,
         size_meas_frac: float = 0.04,
         size_rate0_frac: float = 0.5,
         birth_iou_max: float = 0.5,
         group_update: bool = True,
-        process_noise_frac: float = 0.5,
+        group_hold_s: float = 0.5,
+        process_noise_frac: float = 0.15,
         seed: int = 0,
     ) -> None:
         if num_particles < 10:
@@ -278,7 +296,7 @@ class PTrackingTracker:
         if confirm_hits < 1:
             raise ValueError(f"PTrackingTracker: confirm_hits must be >= 1, got {confirm_hits}")
         for nm, v in (("confirm_window_s", confirm_window_s), ("max_coast_s", max_coast_s),
-                      ("velocity_tau_s", velocity_tau_s), ("size_tau_s", size_tau_s),
+                      ("velocity_tau_s", velocity_tau_s),
                       ("group_max_s", group_max_s), ("reid_memory_s", reid_memory_s)):
             if not v >= 0:
                 raise ValueError(f"PTrackingTracker: {nm} must be >= 0 seconds, got {v}")
@@ -302,7 +320,6 @@ class PTrackingTracker:
         self.confirm_window_s = float(confirm_window_s)
         self.max_coast_s = float(max_coast_s)
         self.velocity_tau_s = float(velocity_tau_s)
-        self.size_tau_s = float(size_tau_s)
         self.group_shrink = float(group_shrink)
         self.colour_max_dist = float(colour_max_dist)
         self.group_max_s = float(group_max_s)
@@ -322,6 +339,7 @@ class PTrackingTracker:
         self.size_rate0_frac = float(size_rate0_frac)
         self.birth_iou_max = float(birth_iou_max)
         self.group_update = bool(group_update)
+        self.group_hold_s = float(group_hold_s)
         self.process_noise_frac = float(process_noise_frac)
         self.seed = int(seed)
         self.reset()
@@ -491,20 +509,13 @@ class PTrackingTracker:
         bk.srate[rows] = np.where(f, 0.0, rate)
         bk.sP[rows] = np.where(f[:, :, None], init, newp)
 
-    @staticmethod
-    def _fit_now(r: np.ndarray, fallback: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Slope and value at the time origin (now) of a regression; ``fallback`` (value) and a
-        zero slope where it has too few samples."""
-        den = r[:, 0] * r[:, 2] - r[:, 1] ** 2
-        ok = den > 1e-9 * np.maximum(r[:, 0] ** 2, 1e-300)
-        slope = np.zeros((len(r), 2))
+    def _velocity_sigmas(self) -> np.ndarray:
+        """Standard deviation of every track's velocity (px/s; inf with fewer than two sightings)."""
+        reg = self.bank.reg
         with np.errstate(divide="ignore", invalid="ignore"):
-            slope[:, 0] = (r[:, 0] * r[:, 5] - r[:, 1] * r[:, 3]) / den
-            slope[:, 1] = (r[:, 0] * r[:, 6] - r[:, 1] * r[:, 4]) / den
-            value = (r[:, 3:5] - slope * r[:, 1:2]) / r[:, 0:1]
-        slope = np.where(ok[:, None], slope, 0.0)
-        value = np.where(ok[:, None], value, fallback)
-        return slope, value
+            spread = reg[:, 2] - reg[:, 1] ** 2 / reg[:, 0]
+            sv = np.sqrt(self.bank.resid_var / spread)
+        return np.where((reg[:, 0] > 0) & (spread > 1e-12), sv, np.inf)
 
     def _velocity_sigma(self, r: int) -> float:
         """Standard deviation of track ``r``'s velocity (px/s), from its regression's time spread."""
@@ -576,11 +587,14 @@ class PTrackingTracker:
             rows = self.prow
             safe = np.maximum(rows, 0)
             vp = np.where(rows[:, None] >= 0, bk.vel[safe] if len(bk) else 0.0, 0.0)
-            # jitter: a random walk whose speed scales with the vessel's size in the image
-            spd = self._px(self.process_noise_px_s)
+            # jitter: a random walk whose speed scales with the vessel's size in the image, plus
+            # the uncertainty of the track's velocity (large for a young track)
+            cap = self._px(self.process_noise_px_s)
+            spd = cap
             if len(bk):
-                spd = np.where(rows >= 0, np.clip(self.process_noise_frac * np.sqrt(np.prod(bk.size[safe], 1)),
-                                                  self._px(2.0), spd), spd)
+                base = np.clip(self.process_noise_frac * np.sqrt(np.prod(bk.size, 1)), self._px(2.0), cap)
+                trk_spd = np.sqrt(base ** 2 + np.minimum(self._velocity_sigmas(), cap) ** 2)
+                spd = np.where(rows >= 0, trk_spd[safe], cap)
             jitter = np.maximum(spd * dt, 0.3 * self._scale)
             self.particles = predict_particles(self.particles, vp, dt, jitter, self.rng)
 
@@ -604,8 +618,7 @@ class PTrackingTracker:
         if m and K:
             sel = cl.labels[len(self.particles):]
             okp = sel >= 0
-            tab = np.zeros((m, K), np.int64)
-            np.add.at(tab, (comp[okp], sel[okp]), 1)
+            tab = np.bincount(comp[okp] * K + sel[okp], minlength=m * K).reshape(m, K)
             has = tab.max(axis=1) > 0
             obs_cluster = np.where(has, tab.argmax(axis=1), -1)
             cl, obs_cluster = self._split_by_observation(P, w, cl, z, osig, obs_cluster)
@@ -980,9 +993,11 @@ class PTrackingTracker:
                             r = rows[i]
                             g.anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
                 seen = {i for i, _ in pairs}
-                for k, r in enumerate(rows):  # the others coast from where they joined the group
+                for k, r in enumerate(rows):  # the others coast from their last whole view
                     a = g.anchors.get(int(bk.uid[r]))
-                    if k not in seen and a is not None:
+                    if k not in seen and t - bk.obs_t[r] <= self.group_hold_s:
+                        bk.srate[r] = 0.0  # a short gap: carry on from the last view as it was
+                    elif k not in seen and a is not None:
                         bk.pos[r] = a[0] + a[1] * (t - a[3])
                         bk.vel[r] = a[1]
                         bk.size[r] = a[2]
@@ -1190,7 +1205,7 @@ class PTrackingTracker:
         newP = P[idx]
         newL = bk.uid[g]
         # tracks left without particles get a fresh cloud around their position
-        empty = np.setdiff1d(np.arange(n_trk), g)
+        empty = np.flatnonzero(np.bincount(g, minlength=n_trk) == 0)
         if len(empty):
             sig = np.maximum(bk.sigma[empty], self._px(self.inject_sigma_px))
             pts, comp = sample_gaussians(bk.pos[empty], sig, np.full(len(empty), per), self.rng)
