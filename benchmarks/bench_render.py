@@ -5,7 +5,9 @@ serial), as ``seawatch sim`` / the demo do, and the median per-frame time is rep
 which includes the first pass that fills the animated-sea cache, beside it).  The in-process peer is a plain ``cv2.GaussianBlur`` (5x5) plus additive
 Gaussian noise of one frame of the same size: the ratio says how many such trivial image
 operations one rendered frame costs.  ``fps_cpu`` uses this process' CPU time instead of wall time,
-which stays meaningful when other jobs share the machine.
+which stays meaningful when other jobs share the machine; its mean (``ms_per_frame_cpu_mean``)
+includes the frames that fill the caches (the animated-sea frames of fixed cameras, the tiled
+panoramas of swaying cameras), which the median leaves out.
 """
 
 from __future__ import annotations
@@ -65,6 +67,10 @@ def run(ctx) -> None:
         ctx.record(ds, "render", "ms_per_frame", med, "ms", **extra)
         ctx.record(ds, "render", "ms_per_frame_mean", float(t.mean()), "ms", **extra)
         # CPU time of this process: robust to other processes sharing the core
-        ctx.record(ds, "render", "fps_cpu", 1000.0 / med_cpu, "frames/s", **extra)
+        ctx.record(ds, "render", "fps_cpu", 1000.0 / med_cpu, "frames/s",
+                   target=TARGET_FPS_704 if (w, h) == (704, 576) else None, **extra)
+        ctx.record(ds, "render", "ms_per_frame_cpu", med_cpu, "ms", **extra)
+        # the mean includes the frames that fill the caches (animated sea, swaying-camera panoramas)
+        ctx.record(ds, "render", "ms_per_frame_cpu_mean", float(np.mean(cpu) * 1e3), "ms", **extra)
         ctx.record(ds, "blur5x5+noise (peer)", "ms_per_frame", peer, "ms")
         ctx.record(ds, "render / peer", "time_ratio", med / peer, "x")

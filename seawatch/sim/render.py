@@ -6,7 +6,9 @@ One frame is built in this order:
    the horizon and the coast, resampled through the camera's exact azimuth/elevation of every pixel
    (computed on a 16-pixel grid and interpolated bilinearly, error far below a pixel);
 2. **sea**: an animated, tileable wave field sampled at each water pixel's sea-surface position,
-   fading with range, with sun glints strongest along the sun's azimuth (one Numba pass);
+   fading with range, with sun glints strongest along the sun's azimuth (one Numba pass).
+   A camera that only sways (``panorama``) gets steps 1-2 from azimuth/elevation panoramas of
+   background plus sea, one per wave frame, built lazily in tiles: one ``cv2.remap`` per frame;
 3. **wakes and reflections** on the water (they never cover a vessel's pixels);
 4. **vessels**, far to near (occlusion by depth): each a set of convex lofted parts projected with
    :meth:`CameraModel.enu_to_pixel` (Earth curvature included), back faces culled, faces shaded by
