@@ -521,7 +521,11 @@ class Renderer:
         src, oy, ox = self._tiles(entry[0], entry[1], ty0, ty1, tx0, tx1,
                                   lambda y0, y1, x0, x1: self._pano_region(L, fi, y0, y1, x0, x1))
         m = _upsample_grid(np.stack((px - ox, py - oy), axis=-1), gw, s, (H, W))
-        water_row = first_water_rows(m, L.water_top_y[ox:] - np.float32(oy)).astype(np.float64)
+        # rows whose grid samples above and below all lie above the lowest water top hold no water
+        # (the map is linear between samples): the scan for the first water row starts below them
+        wet = np.nonzero((py > float(L.water_top_y.min())).any(axis=1))[0]
+        r_s = min(H, max(0, (int(wet[0]) - 2) * s)) if len(wet) else H
+        water_row = (first_water_rows(m[r_s:], L.water_top_y[ox:] - np.float32(oy)) + r_s).astype(np.float64)
         m1, m2 = cv2.convertMaps(m, None, cv2.CV_16SC2)
         img = cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return img.reshape(H, W, self.C), water_row
