@@ -637,6 +637,8 @@ class PTrackingTracker:
         self._prior_table(cl, w, K)
         c_track = np.full(K, -1, np.int64)  # row of the track each cluster went to
         consumed = np.zeros(K, bool)  # taken by a group
+        self._pending: list[tuple] = []  # track updates of this frame, applied at once
+        self._renew: list[tuple] = []  # (group, uid) anchors to renew after them
 
         # 5. groups
         self._process_groups(t, cl, z, boxes[:, 2:4], obs_cluster, c_track, consumed)
@@ -651,8 +653,8 @@ class PTrackingTracker:
             ri, ci = linear_sum_assignment(cost)
             ok = cost[ri, ci] < 1e9
             rows, cls_ = free_tr[ri[ok]], free_cl[ci[ok]]
-            self._update_tracks(rows, self._estimate(rows, cls_, c_pos), c_size[cls_], cl.sigmas[cls_],
-                                cl.weights[cls_], t, dt)
+            self._queue_update(rows, self._estimate(rows, cls_, c_pos), c_size[cls_], cl.sigmas[cls_],
+                               cl.weights[cls_])
             c_track[cls_] = rows
 
         # 7. births (not on top of a live track: a second detection of one vessel)
@@ -667,8 +669,13 @@ class PTrackingTracker:
             bk.pos[rows] = c_pos[born]
             bk.size[rows] = c_size[born]
             bk.born_t[rows] = t
-            self._update_tracks(rows, c_pos[born], c_size[born], cl.sigmas[born], cl.weights[born], t, dt)
+            self._queue_update(rows, c_pos[born], c_size[born], cl.sigmas[born], cl.weights[born])
             c_track[born] = rows
+
+        self._flush_updates(t, dt)
+        for g, u in self._renew:
+            r = int(np.flatnonzero(bk.uid == u)[0])
+            g.anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
 
         # confirmation (with re-identification against lost tracks)
         window = self._confirm_window()
@@ -810,6 +817,22 @@ class PTrackingTracker:
         out[idx, 0] = tab[1, c[good], r[good]] / m[good]
         out[idx, 1] = tab[2, c[good], r[good]] / m[good]
         return out
+
+    def _queue_update(self, rows, pos, size, sigma, weight) -> None:
+        """Mark tracks ``rows`` updated this frame; their state is updated by :meth:`_flush_updates`."""
+        rows = np.asarray(rows, np.int64)
+        if len(rows) == 0:
+            return
+        self.bank.updated[rows] = True
+        self._pending.append((rows, np.asarray(pos, float).reshape(-1, 2), np.asarray(size, float).reshape(-1, 2),
+                              np.asarray(sigma, float).reshape(-1, 2), np.asarray(weight, float).reshape(-1)))
+
+    def _flush_updates(self, t: float, dt: float) -> None:
+        if not self._pending:
+            return
+        parts = list(zip(*self._pending))
+        self._pending = []
+        self._update_tracks(*(np.concatenate(p) for p in parts), t, dt)
 
     def _update_tracks(self, rows, pos, size, sigma, weight, t, dt) -> None:
         """Update tracks ``rows`` with cluster estimates."""
@@ -990,8 +1013,7 @@ class PTrackingTracker:
                         u = int(bk.uid[rows[i]])
                         a = g.anchors.get(u)
                         if a is None or np.all(osize[mine[j]] >= 0.9 * a[2]):
-                            r = rows[i]
-                            g.anchors[u] = (bk.pos[r].copy(), bk.vel[r].copy(), bk.size[r].copy(), t)
+                            self._renew.append((g, u))  # once the update is applied
                 seen = {i for i, _ in pairs}
                 for k, r in enumerate(rows):  # the others coast from their last whole view
                     a = g.anchors.get(int(bk.uid[r]))
@@ -1098,7 +1120,7 @@ class PTrackingTracker:
         sigma = np.where(pc[:, None] >= 0, cl.sigmas[np.maximum(pc, 0)] if len(cl) else 0.0,
                          self._px(self.inject_sigma_px))
         weight = np.where(pc >= 0, cl.weights[np.maximum(pc, 0)] if len(cl) else 0.0, 0.0)
-        self._update_tracks(pr, pos, osize[pj], sigma, weight, t, self._dt)
+        self._queue_update(pr, pos, osize[pj], sigma, weight)
         for r, c in zip(pr, pc):
             if c >= 0 and c_track[c] < 0:
                 c_track[c] = r
@@ -1107,17 +1129,29 @@ class PTrackingTracker:
     def _estimate_obs(self, rows, obs, z) -> np.ndarray:
         """Posterior mean of each track's own predicted particles given one observation each
         (the kernel of that observation alone); the observation itself when they do not reach it."""
+        rows = np.asarray(rows, np.int64)
+        obs = np.asarray(obs, np.int64)
         out = z[obs].copy()
-        if not self.prior_estimate or len(self.particles) == 0:
+        if not self.prior_estimate or len(self.particles) == 0 or len(rows) == 0:
             return out
-        for k, (r, j) in enumerate(zip(rows, obs)):  # a few group members per frame
-            own = self.prow == r
-            if not own.any():
-                continue
-            p = self.particles[own]
-            w = np.exp(-np.linalg.norm((p - z[j]) / self._osig[j], axis=1))
-            if w.mean() > math.exp(-3.0):
-                out[k] = (w[:, None] * p).sum(0) / w.sum()
+        pair = np.full(len(self.bank), -1, np.int64)
+        pair[rows] = np.arange(len(rows))
+        k = np.where(self.prow >= 0, pair[np.maximum(self.prow, 0)], -1)
+        sel = np.flatnonzero(k >= 0)
+        if len(sel) == 0:
+            return out
+        k = k[sel]
+        p = self.particles[sel]
+        j = obs[k]
+        w = np.exp(-np.linalg.norm((p - z[j]) / self._osig[j], axis=1))
+        n = len(rows)
+        mass = np.bincount(k, w, n)
+        cnt = np.bincount(k, None, n)
+        good = (cnt > 0) & (mass > math.exp(-3.0) * np.maximum(cnt, 1))
+        sx = np.bincount(k, w * p[:, 0], n)
+        sy = np.bincount(k, w * p[:, 1], n)
+        out[good, 0] = sx[good] / mass[good]
+        out[good, 1] = sy[good] / mass[good]
         return out
 
     def _form_groups(self, t: float) -> None:
