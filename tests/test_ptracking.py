@@ -298,3 +298,16 @@ def test_group_helpers():
     assert match_by_colour(h[[0]], h[[1]]) == []  # red and green do not match
     grey = hsv_histograms(img[:, :, 0], np.array([[0, 0, 100, 40]], float))
     assert grey[0, :62].sum() == 0 and grey[0, 62:].sum() == pytest.approx(1.0)
+
+
+def test_built_from_the_configuration():
+    from seawatch.config import load_config
+
+    cfg = load_config(overrides=["tracker.kind=ptracking", "tracker.delta_px=30.0", "tracker.num_particles=300",
+                                 "tracker.max_coast_s=3.5", "tracker.ego_motion=flow"])
+    tr = PTrackingTracker.from_config(cfg)
+    assert (tr.delta_px, tr.num_particles, tr.max_coast_s, tr.ego_motion) == (30.0, 300, 3.5, "flow")
+    with pytest.raises(ValueError, match="ego_motion"):
+        PTrackingTracker(ego_motion="gyro")
+    with pytest.raises(ValueError, match="camera"):
+        PTrackingTracker(ego_motion="ptz")
