@@ -446,8 +446,8 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--min-hit-rate", type=float, default=0.995, help="per-stage minimum hit rate (0.995)")
     p.add_argument("--max-false-alarm", type=float, default=0.5, help="per-stage maximum false-alarm rate (0.5)")
     p.add_argument("--max-weak-count", type=int, default=100, help="most stumps per stage (100)")
-    p.add_argument("--early-weak-counts", default="4,8,12,16,24,32,48,64",
-                   help="most stumps in the first stages, comma-separated ('' for none): a faster detector")
+    p.add_argument("--early-weak-counts", default="",
+                   help="most stumps in each of the first stages, comma-separated, e.g. 8,12,16 (default: none)")
     p.add_argument("--features-per-stage", type=int, default=6000, help="random Haar features tried per stage (6000)")
     p.add_argument("--max-positives", type=int, default=6000, help="most positive windows after augmentation (6000)")
     p.add_argument("--window", default="60x30", help="window WIDTHxHEIGHT in pixels (60x30)")

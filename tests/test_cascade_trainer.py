@@ -221,3 +221,22 @@ def test_split_is_by_time_and_disjoint():
         for im in parts[k]:
             if im.group == "b":
                 assert all(o.order != im.order for j in parts if j != k for o in parts[j] if o.group == "b")
+
+
+def test_weight_trimming_keeps_both_classes():
+    from seawatch.train.boost import _trimmed
+
+    pos = np.zeros(1000, bool)
+    pos[:20] = True
+    w = np.full(1000, 1e-6)
+    w[:3] = 0.33  # three hard positives hold almost all the weight
+    sel = _trimmed(w, pos, 0.95)
+    assert pos[sel].any() and (~pos[sel]).sum() >= 50
+    # a stage on data where global trimming would keep only positives still rejects negatives
+    rng = np.random.default_rng(6)
+    y = np.where(pos, 1.0, -1.0)
+    vals = rng.normal(size=(10, 1000)).astype(np.float32)
+    vals[2, ~pos] -= 2.0
+    res = train_stage(vals, y, np.arange(10), min_hit_rate=0.995, max_false_alarm=0.3, max_weak_count=10,
+                      n_bins=32, rng=rng)
+    assert res.false_alarm <= 0.3

@@ -104,3 +104,12 @@ def test_theta_range_is_the_authors_asymmetric_one():
     img, _, _ = boat_scene(1, 320, 240, horizon_px=70.0, tilt_deg=2.5)
     assert detect_horizon(img, max_end_diff_px=20.0) is None
     assert detect_horizon(img, max_end_diff_px=20.0, theta_range_rad=(1.50, 1.65)) is not None
+
+
+def test_tracker_detects_at_most_every_s():
+    img, _, (yl, yr) = boat_scene(0, 320, 240, horizon_px=60.0)
+    tr = HorizonTracker(tau_s=0.0, every_s=0.2)
+    assert tr.update(img, 0.0) is not None
+    other, _, _ = boat_scene(1, 320, 240, horizon_px=120.0)
+    assert abs(tr.update(other, 0.1).y_left - yl) <= 3  # not re-detected yet
+    assert abs(tr.update(other, 0.25).y_left - 120.0) <= 3  # re-detected (a jump restarts)

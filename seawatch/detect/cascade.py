@@ -62,7 +62,7 @@ def load_model_meta(model_path: str | Path) -> dict:
 class CascadeParams:
     """Settings of :class:`CascadeDetector` (see ``DetectorSettings`` in :mod:`seawatch.config`)."""
 
-    scale_factor: float = 1.1
+    scale_factor: float = 0.0  # 0: the value chosen on validation data, stored beside the model (else 1.1)
     min_neighbors: int = 0  # 0: the value chosen on validation data, stored beside the model (else 3)
     min_size_px: float = 0.0  # smallest boat (box width, source px); 0: automatic
     detection_width_px: int = 0  # overrides the detection scale; 0: automatic
@@ -74,10 +74,11 @@ class CascadeParams:
     horizon_filter: bool = True
     horizon_tau_s: float = 0.5
     horizon_hold_s: float = 2.0
+    horizon_every_s: float = 0.2  # detect the line at most 5 times a second (smoothed in between)
     water_roi: bool = True  # with the horizon filter: scan only below the horizon (less a margin)
     roi_margin_frac: float = 0.2
     reflection_filter: bool = True
-    reflection_min_per_100px2: float = 0.05
+    reflection_min_per_100px2: float = 0.01
     fast_threshold: int = 20
 
 
@@ -110,8 +111,8 @@ class CascadeDetector:
             if not hasattr(p, k):
                 raise TypeError(f"CascadeDetector: unknown parameter {k!r}")
             setattr(p, k, v)
-        if p.scale_factor <= 1.0:
-            raise ValueError(f"scale_factor must be > 1, got {p.scale_factor}")
+        if p.scale_factor != 0.0 and p.scale_factor <= 1.0:
+            raise ValueError(f"scale_factor must be > 1 (or 0: the model's), got {p.scale_factor}")
         path = Path(model_path) if model_path else default_model_path()
         if not path.is_file():
             raise FileNotFoundError(f"cascade model not found: {path}")
@@ -127,12 +128,16 @@ class CascadeDetector:
         meta = load_model_meta(path)
         self.ratio_w = float(meta["box_ratio_w"])
         self.ratio_h = float(meta["box_ratio_h"])
+        tuned = meta.get("detector") or {}
         if p.min_neighbors <= 0:
-            p.min_neighbors = int((meta.get("detector") or {}).get("min_neighbors", 3))
+            p.min_neighbors = int(tuned.get("min_neighbors", 3))
+        if p.scale_factor == 0.0:
+            p.scale_factor = float(tuned.get("scale_factor", 1.1))
         self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p
-        self.horizon_tracker = HorizonTracker(tau_s=p.horizon_tau_s, hold_s=p.horizon_hold_s)
+        self.horizon_tracker = HorizonTracker(tau_s=p.horizon_tau_s, hold_s=p.horizon_hold_s,
+                                              every_s=p.horizon_every_s)
         self.horizon: Horizon | None = None
         self.n_bad_frames = 0
         self.last_windows = np.zeros((0, 4))
@@ -143,7 +148,7 @@ class CascadeDetector:
         d = config.detector
         return cls(
             d.cascade_model or None,
-            scale_factor=d.scale_factor,
+            scale_factor=float(getattr(d, "cascade_scale_factor", 0.0)),
             min_neighbors=int(getattr(d, "cascade_min_neighbors", 0)),
             min_size_px=float(d.min_size_px),
             detection_width_px=int(d.detection_width_px),
@@ -267,6 +272,17 @@ class CascadeDetector:
         ir = frame.modality == Modality.IR
         boxes, scores = self.detect_grey(grey, frame.t_s, ir=ir)
         return Detections(frame.t_s, frame.index, boxes, scores, self.name, frame.camera_id)
+
+    def observe(self, frame: Frame) -> None:
+        """Update the time-smoothed horizon line from a frame without detecting (cheap)."""
+        if not self.params.horizon_filter:
+            return
+        try:
+            grey = to_grey(frame.image, f"frame {frame.index}")
+        except ValueError:
+            self.n_bad_frames += 1
+            return
+        self._update_horizon(grey, frame.t_s, frame.modality == Modality.IR)
 
     def reset(self) -> None:
         """Forget the horizon state (a new video)."""

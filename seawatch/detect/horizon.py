@@ -251,13 +251,18 @@ class HorizonTracker:
     max_jump_px : float
         A new line farther than this from the smoothed one (at either end) restarts the
         smoothing (a pan or zoom moved it).
+    every_s : float
+        Detect the line at most once per this many seconds (0: every frame).
     **detect_kw
         Passed to :func:`detect_horizon`.
     """
 
-    def __init__(self, tau_s: float = 0.5, hold_s: float = 2.0, max_jump_px: float = 25.0, **detect_kw):
-        if tau_s < 0 or hold_s < 0:
-            raise ValueError("HorizonTracker: tau_s and hold_s must be >= 0")
+    def __init__(self, tau_s: float = 0.5, hold_s: float = 2.0, max_jump_px: float = 25.0, every_s: float = 0.0,
+                 **detect_kw):
+        if tau_s < 0 or hold_s < 0 or every_s < 0:
+            raise ValueError("HorizonTracker: tau_s, hold_s and every_s must be >= 0")
+        self.every_s = float(every_s)
+        self.t_detect: float | None = None
         self.tau_s = float(tau_s)
         self.hold_s = float(hold_s)
         self.max_jump_px = float(max_jump_px)
@@ -268,10 +273,17 @@ class HorizonTracker:
 
     def reset(self) -> None:
         self.state = None
-        self.t_last = self.t_prev = None
+        self.t_last = self.t_prev = self.t_detect = None
 
     def update(self, image: np.ndarray, t_s: float, ir: bool = False) -> Horizon | None:
-        """Detect the line in this frame and return the smoothed line (or None)."""
+        """Detect the line in this frame and return the smoothed line (or None).
+
+        With ``every_s > 0`` the line is detected at most once per ``every_s`` seconds; in
+        between, the smoothed line is returned as it is.
+        """
+        if self.every_s > 0 and self.t_detect is not None and 0.0 <= t_s - self.t_detect < self.every_s:
+            return self.state
+        self.t_detect = float(t_s)
         found = detect_horizon(image, ir=ir, **self.detect_kw)
         return self.update_with(found, t_s)
 

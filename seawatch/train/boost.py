@@ -147,6 +147,19 @@ def _apply(bins_row, k, lv, rv, out):
         out[i] = lv if bins_row[i] < k else rv
 
 
+def _trimmed(w: np.ndarray, pos: np.ndarray, rate: float, min_per_class: int = 50) -> np.ndarray:
+    """Indices of the heaviest samples holding ``rate`` of each class's weight (weight trimming,
+    per class so that both classes always remain)."""
+    out = []
+    for cls in (pos, ~pos):
+        idx = np.flatnonzero(cls)
+        order = idx[np.argsort(w[idx])[::-1]]
+        cw = np.cumsum(w[order])
+        m = int(np.searchsorted(cw, rate * cw[-1])) + 1
+        out.append(order[: max(m, min(len(order), min_per_class))])
+    return np.sort(np.concatenate(out))
+
+
 @dataclass
 class StageResult:
     stage: Stage
@@ -218,16 +231,12 @@ def train_stage(
     thr = 0.0
     hr = fa = 1.0
     for t in range(int(max_weak_count)):
-        if weight_trim_rate < 1.0:
-            order = np.argsort(w)[::-1]
-            cw = np.cumsum(w[order])
-            m = int(np.searchsorted(cw, weight_trim_rate * cw[-1])) + 1
-            sel = np.sort(order[: max(m, min(n, 100))])
-        else:
-            sel = None
+        sel = _trimmed(w, pos, weight_trim_rate) if weight_trim_rate < 1.0 else None
         f, k, lv, rv = best_stump(bins, n_edges, w, y, n_bins, sel)
-        if f < 0:
-            break
+        if sel is not None and (f < 0 or abs(lv - rv) < 1e-9):
+            f, k, lv, rv = best_stump(bins, n_edges, w, y, n_bins)  # trimming left no contrast
+        if f < 0 or abs(lv - rv) < 1e-9:
+            break  # no stump separates the samples any more
         lv32, rv32 = np.float32(lv), np.float32(rv)
         _apply(bins[f], k, float(lv32), float(rv32), contrib)
         score += contrib

@@ -203,7 +203,8 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
 
 
 def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: TrainSettings | None = None,
-                        use_sim: bool = True, command: str = "", log=print) -> dict:
+                        use_sim: bool = True, command: str = "", log=print,
+                        scale_factors: tuple[float, ...] = (1.1, 1.2)) -> dict:
     """Train, tune and describe the default boat cascade (see the module docstring)."""
     s = settings or TrainSettings()
     t0 = time.perf_counter()
@@ -214,16 +215,26 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
             srcs[im.source] = srcs.get(im.source, 0) + 1
         log(f"  {k}: {len(v)} images {srcs}")
     cascade, record = train_cascade(parts["train"], out_xml, s, log=log)
-    calib = calibrate_boxes(out_xml, [im for im in parts["train"] if im.source in ("mardct", "sim")], log=log)
+    if cascade.n_stages == 0:
+        raise ValueError(f"training stopped before the first stage ({record.get('stop_reason')}); "
+                         "allow more stumps per stage (--early-weak-counts, --max-weak-count)")
+    # the annotation's box convention, learned from the real training frames
+    calib = calibrate_boxes(out_xml, [im for im in parts["train"] if im.source == "mardct"], log=log)
     _update_json(out_xml, calib)
     record.update(calib)
     val = [im for im in parts["val"] if im.source in ("mardct", "sim")]
-    best, table = tune_min_neighbors(out_xml, val, log=log)
-    log(f"  chosen min_neighbors {best} (validation part: MarDCT and simulator frames)")
-    _update_json(out_xml, {"detector": {"min_neighbors": int(best)}})
+    table, best, best_f1, best_sf = {}, None, -1.0, None
+    for sf in scale_factors:
+        log(f"  scale factor {sf}:")
+        mn, tab = tune_min_neighbors(out_xml, val, log=log, scale_factor=sf)
+        table[f"{sf:g}"] = tab
+        if tab[mn][0.3]["F1"] > best_f1:
+            best, best_f1, best_sf = mn, tab[mn][0.3]["F1"], sf
+    log(f"  chosen scale factor {best_sf}, min_neighbors {best} (validation part: MarDCT and simulator frames)")
+    _update_json(out_xml, {"detector": {"min_neighbors": int(best), "scale_factor": float(best_sf)}})
     from seawatch.detect.cascade import CascadeDetector
 
-    det = CascadeDetector(out_xml, min_neighbors=best)
+    det = CascadeDetector(out_xml)
     held = {}
     for src in ("mardct",):
         ims = [im for im in parts["heldout"] if im.source == src]
@@ -231,8 +242,9 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
             held[src] = evaluate_images(det, ims)
             log(f"  held-out {src} ({len(ims)} images): F1@0.3 {held[src][0.3]['F1']:.3f} "
                 f"F1@0.5 {held[src][0.5]['F1']:.3f} FAR@0.3 {held[src][0.3]['FAR']:.3f}")
-    record["detector"] = {"min_neighbors": int(best)}
-    record["validation"] = {str(k): {str(i): v for i, v in r.items()} for k, r in table.items()}
+    record["detector"] = {"min_neighbors": int(best), "scale_factor": float(best_sf)}
+    record["validation"] = {sf: {str(k): {str(i): v for i, v in r.items()} for k, r in tab.items()}
+                            for sf, tab in table.items()}
     record["heldout"] = {k: {str(i): v for i, v in r.items()} for k, r in held.items()}
     record["split"] = {k: sorted(im.name for im in v) for k, v in parts.items()}
     record["command"] = command

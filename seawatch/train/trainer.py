@@ -51,7 +51,7 @@ class TrainSettings:
     max_weak_count: int = 100
     # stumps allowed in the first stages (then max_weak_count): cheap early stages make a fast
     # detector; a capped stage may stop above max_false_alarm
-    early_weak_counts: tuple[int, ...] = (4, 8, 12, 16, 24, 32, 48, 64)
+    early_weak_counts: tuple[int, ...] = ()
     weight_trim_rate: float = 0.95
     n_bins: int = 64
     feature_kinds: tuple[str, ...] = ("x2", "y2", "x3", "y3", "x4", "y4", "x2y2", "point")
@@ -237,9 +237,10 @@ def _wake_negatives(cascade: Cascade, images: list[LabelledImage], s: TrainSetti
     for im in images:
         g = im.grey()
         avoid = _avoid_boxes(im, aspect, s.margin)
-        # (a) false alarms of the cascade, scanned like the detector would
-        up = upscale if max(g.shape) < 1000 else upscale / 3.0
-        wins = detect_windows(cascade, g, up)
+        # (a) false alarms of the cascade, scanned like the detector would: the detection
+        # scale puts a boat of 1/16 of the image width in the window (``upscale`` caps it)
+        up = min(upscale, s.width_px / s.margin / max(12.0, g.shape[1] / 16.0))
+        wins = detect_windows(cascade, g, up, scale_factor=1.2)
         if len(wins) and len(avoid):
             wins = wins[iou_matrix(wins, avoid).max(axis=1) <= s.neg_iou_max]
         if len(wins) > 60:
@@ -373,6 +374,10 @@ def train_cascade(
         cap = s.early_weak_counts[st] if st < len(s.early_weak_counts) else s.max_weak_count
         res = train_stage(binned, labels, ids, s.min_hit_rate, s.max_false_alarm, min(cap, s.max_weak_count),
                           s.n_bins, s.weight_trim_rate, rng)
+        if res.false_alarm >= 0.999:
+            stop_reason = "a stage could not reject any negative"
+            log(f"  stage {st} rejects no negative: stopping")
+            break
         cascade.stages.append(res.stage)
         keep = res.passed
         n_p = len(pos)
