@@ -68,7 +68,25 @@ def _reported(tracks: Tracks, include_coasting: bool) -> Tracks:
     return _select(tracks, keep)
 
 
-class MotCsvWriter:
+class _RowWriter:
+    """A text file of one row per detection or per track (the common part of the row writers)."""
+
+    def __init__(self, path: str | Path, kind: str, include_coasting: bool) -> None:
+        if kind not in ("detections", "tracks"):
+            raise ValueError(f"{type(self).__name__}: kind must be 'detections' or 'tracks', got {kind!r}")
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.kind = kind
+        self.include_coasting = include_coasting
+        self._fh = open(self.path, "w", encoding="utf-8", newline="\n")
+        self.rows = 0
+
+    def close(self) -> None:
+        if not self._fh.closed:
+            self._fh.close()
+
+
+class MotCsvWriter(_RowWriter):
     """MOTChallenge CSV: ``frame,id,x,y,w,h,conf,-1,-1,-1`` with 1-based frame numbers.
 
     Parameters
@@ -83,14 +101,7 @@ class MotCsvWriter:
     """
 
     def __init__(self, path: str | Path, kind: str = "tracks", include_coasting: bool = False) -> None:
-        if kind not in ("detections", "tracks"):
-            raise ValueError(f"MotCsvWriter: kind must be 'detections' or 'tracks', got {kind!r}")
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.kind = kind
-        self.include_coasting = include_coasting
-        self._fh = open(self.path, "w", encoding="utf-8", newline="\n")
-        self.rows = 0
+        super().__init__(path, kind, include_coasting)
 
     def write(self, frame, detections, tracks, alerts=(), camera=None) -> None:
         if self.kind == "detections":
@@ -107,9 +118,6 @@ class MotCsvWriter:
         self._fh.writelines(lines)
         self.rows += len(lines)
 
-    def close(self) -> None:
-        if not self._fh.closed:
-            self._fh.close()
 
 
 def _num(v: float, nd: int = 3):
@@ -148,18 +156,11 @@ def track_rows(tracks: Tracks, include_coasting: bool = True) -> list[dict[str, 
     return rows
 
 
-class JsonlWriter:
+class JsonlWriter(_RowWriter):
     """JSON Lines, one object per detection or per reported track per frame."""
 
     def __init__(self, path: str | Path, kind: str = "tracks", include_coasting: bool = True) -> None:
-        if kind not in ("detections", "tracks"):
-            raise ValueError(f"JsonlWriter: kind must be 'detections' or 'tracks', got {kind!r}")
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.kind = kind
-        self.include_coasting = include_coasting
-        self._fh = open(self.path, "w", encoding="utf-8", newline="\n")
-        self.rows = 0
+        super().__init__(path, kind, include_coasting)
 
     def write(self, frame, detections, tracks, alerts=(), camera=None) -> None:
         if self.kind == "detections":
@@ -182,9 +183,6 @@ class JsonlWriter:
         self._fh.writelines(json.dumps(r, separators=(", ", ": ")) + "\n" for r in rows)
         self.rows += len(rows)
 
-    def close(self) -> None:
-        if not self._fh.closed:
-            self._fh.close()
 
 
 def _jsonable(obj: Any) -> Any:
