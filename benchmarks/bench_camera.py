@@ -9,7 +9,6 @@ the first AIS snapshot (12:05:12 UTC+8, the clip's start).
 
 from __future__ import annotations
 
-import csv
 import time
 from pathlib import Path
 
@@ -21,32 +20,25 @@ DESCRIPTION = "FVessel clip-01: AIS positions projected through the camera model
 T0_UNIX_S = 1654315512.0  # 2022-06-04 12:05:12 UTC+8, first AIS snapshot of clip-01
 
 
-def _read_reports(ais_dir: Path) -> dict[int, np.ndarray]:
-    """All distinct valid reports per MMSI: rows (t_s, lat, lon, sog_kn, cog_deg), time-sorted."""
-    seen: dict[tuple[int, int], tuple] = {}
-    for f in sorted(ais_dir.glob("*.csv")):
-        with open(f, newline="") as fh:
-            for row in csv.DictReader(fh):
-                lat, lon = float(row["lat"]), float(row["lon"])
-                if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-                    continue
-                key = (int(row["mmsi"]), int(row["timestamp"]))
-                seen[key] = (key[1] / 1000.0, lat, lon, float(row["speed"]), float(row["course"]))
+def _reports_by_mmsi(ais_dir: Path) -> dict[int, np.ndarray]:
+    """Valid position reports per MMSI as rows (t_s, lat, lon, sog_kn, cog_deg), time-sorted."""
+    from seawatch.io.ais import read_fvessel_ais
+
+    reports, _ = read_fvessel_ais(ais_dir)  # invalid positions (lat 91, lon 181) are rejected there
     out: dict[int, list] = {}
-    for (mmsi, _), rec in seen.items():
-        out.setdefault(mmsi, []).append(rec)
-    return {m: np.array(sorted(r)) for m, r in out.items()}
+    for r in reports:
+        if r.has_position:
+            out.setdefault(r.mmsi, []).append((r.t_s, r.lat_deg, r.lon_deg, r.sog_kn, r.cog_deg))
+    return {m: np.array(sorted(v)) for m, v in out.items()}
 
 
 def _dead_reckon(reports: np.ndarray, t_s: np.ndarray):
-    import pymap3d
+    from seawatch.fuse.table import dead_reckon_geodetic
 
     idx = np.clip(np.searchsorted(reports[:, 0], t_s, side="right") - 1, 0, len(reports) - 1)
     r = reports[idx]
-    dist = r[:, 3] * 0.514444 * (t_s - r[:, 0])
-    cog = np.radians(r[:, 4])
-    lat, lon, _ = pymap3d.enu2geodetic(dist * np.sin(cog), dist * np.cos(cog), 0.0, r[:, 1], r[:, 2], 0.0)
-    return lat, lon
+    return dead_reckon_geodetic(r[:, 1], r[:, 2], np.nan_to_num(r[:, 3]) * 0.514444, np.nan_to_num(r[:, 4]),
+                                t_s - r[:, 0])
 
 
 def run(ctx) -> None:
@@ -54,7 +46,7 @@ def run(ctx) -> None:
 
     root = ctx.data("fvessel_clip01")
     cam = load_fvessel_camera(root / "camera_para.txt")
-    reports = _read_reports(root / "ais")
+    reports = _reports_by_mmsi(root / "ais")
     gt = np.loadtxt(root / "gt" / "clip-01_gt_fusion.txt", delimiter=",", ndmin=2)
     t0 = time.perf_counter()
     for mmsi in np.unique(gt[:, 1]).astype(int):
