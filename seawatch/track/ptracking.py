@@ -13,22 +13,28 @@ The loop, per frame (:meth:`PTrackingTracker.update`):
 2. **Predict**: each track moves on its constant velocity; its particles with it, plus jitter.
 3. **Observe**: the observation of a box is its bottom centre.  A share of the particles is
    drawn around the observations (so new vessels are found), and every particle is weighed by
-   ``sum_j exp(-|p - z_j| / sigma)``.
-4. **KClusterize** the weighted cloud into a Gaussian mixture (:mod:`.kclusterize`).
-5. **Groups** (:mod:`.group`): clusters inside a group's region belong to the group; its members
-   coast on their velocities.  When the members' predicted boxes separate, the clusters that
-   come out are given to the members by the Bhattacharyya distance of their HSV histograms.
+   ``sum_j exp(-|(p - z_j) / sigma_j|)``, an elliptical kernel scaled by each box.
+4. **KClusterize** the weighted cloud into a Gaussian mixture (:mod:`.kclusterize`); a cluster
+   holding several observations is split between them.
+5. **Groups** (:mod:`.group`): the observations in a group's region belong to the group; members
+   plainly observed are updated, the others coast on their velocities.  When the members'
+   predicted boxes separate, the observations that come out are given to the members by the
+   Bhattacharyya distance of their HSV histograms.
 6. **Associate** the other clusters with tracks (Hungarian on the distance to the predicted
-   position, gated); update matched tracks (position = cluster mean, velocity = exponentially
-   weighted regression over the recent positions, box size smoothed).
-7. **Births**: a cluster with an observation and no track starts a tentative track; it is
-   confirmed after ``confirm_hits`` sightings within ``confirm_window_s``; at confirmation it is
-   first re-identified against recently lost tracks (the paper's tests: same direction, similar
-   speed, closeness, and the colour model) before a new number is given.
+   position, gated); update matched tracks (position = posterior mean of the track's own
+   particles, velocity = exponentially weighted regression over the recent positions, box size
+   = a constant-rate Kalman filter).
+7. **Births**: a cluster with an observation and no track (and not on top of one) starts a
+   tentative track; it is confirmed after ``confirm_hits`` sightings within
+   ``confirm_window_s``; at confirmation it is first re-identified against recently lost and
+   coasting tracks (the paper's tests: same direction, similar speed, closeness, and the colour
+   model) before a new number is given.
 8. **Delete** tentative tracks unseen for ``confirm_window_s``, confirmed ones unseen for
    ``max_coast_s`` (group members are kept while their group lasts).
 9. **Form groups** of confirmed tracks whose boxes, shrunk to 0.8, overlap; save their colours.
 10. **Resample** each track's particles (systematic, per cluster) to its share of the budget.
+
+See ``docs/ptracking.md`` for the deviations from the paper.
 
 Every time parameter is in seconds; pixel parameters are given for a 704-pixel-wide image and
 scaled with the width of the frames (or ``image_width_px``).
