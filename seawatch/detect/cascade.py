@@ -64,6 +64,9 @@ class CascadeParams:
 
     scale_factor: float = 0.0  # 0: the value chosen on validation data, stored beside the model (else 1.1)
     min_neighbors: int = 0  # 0: the value chosen on validation data, stored beside the model (else 3)
+    # a window of w detection pixels needs min_neighbors * (w / window width) ** neighbors_size_exp
+    # neighbours (larger boats gather many more); -1: the model's value (else 0)
+    neighbors_size_exp: float = -1.0
     min_size_px: float = 0.0  # smallest boat (box width, source px); 0: automatic
     detection_width_px: int = 0  # overrides the detection scale; 0: automatic
     max_upscale: float = 4.0
@@ -133,6 +136,8 @@ class CascadeDetector:
             p.min_neighbors = int(tuned.get("min_neighbors", 3))
         if p.scale_factor == 0.0:
             p.scale_factor = float(tuned.get("scale_factor", 1.1))
+        if p.neighbors_size_exp < 0:
+            p.neighbors_size_exp = float(tuned.get("neighbors_size_exp", 0.0))
         self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p
@@ -237,8 +242,10 @@ class CascadeDetector:
         so that one cascade pass run with ``min_neighbors=1`` can be re-thresholded.
         """
         p = self.params
-        if min_neighbors is not None and len(wins):
-            keep = scores >= min_neighbors
+        mn = p.min_neighbors if min_neighbors is None else min_neighbors
+        if len(wins) and (min_neighbors is not None or p.neighbors_size_exp != 0):
+            w_det = wins[:, 2] * self.detection_scale(g.shape[1]) / self.window[0]
+            keep = scores >= mn * np.maximum(w_det, 1.0) ** p.neighbors_size_exp
             wins, scores = wins[keep], scores[keep]
         if p.canny_prune and len(wins):
             keep = canny_prune(g, wins, p.min_edge_frac)

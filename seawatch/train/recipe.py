@@ -163,14 +163,14 @@ def _update_json(xml: str | Path, fields: dict) -> None:
 
 def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
                        candidates=(1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128),
-                       iou: float = 0.3, log=print, **detector_kw) -> tuple[int, dict]:
+                       iou: float = 0.3, log=print, size_exps=(0.0,), **detector_kw) -> tuple[int, dict]:
     """The ``min_neighbors`` of best F1 at ``iou`` on validation images, and all figures.
 
     One cascade pass per image (``min_neighbors=1``), re-thresholded for every candidate.
     """
     from seawatch.detect.cascade import CascadeDetector
 
-    det = CascadeDetector(model_path, min_neighbors=1, **detector_kw)
+    det = CascadeDetector(model_path, min_neighbors=1, neighbors_size_exp=0.0, **detector_kw)
     raw = []
     for im in images:
         g = det_prepare(im, det)
@@ -180,7 +180,8 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
         small = im.boxes[:, 2] < 0.8 * det.min_boat_px(g.shape[1]) if len(im.boxes) else np.zeros(0, bool)
         truth.append((im.boxes[~small], np.concatenate([im.ignore.reshape(-1, 4), im.boxes[small]])))
     table = {}
-    for mn in candidates:
+    for mn, ex in [(m, e) for e in size_exps for m in candidates]:
+        det.params.neighbors_size_exp = float(ex)
         counts = {i: [0, 0, 0] for i in (0.3, 0.5)}
         for im, (g, graw, wins, cnt), (gt, ign) in zip(images, raw, truth):
             det.reset()
@@ -195,10 +196,11 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
                 c[1] += fp
                 c[2] += fn
         res = {i: scores_from_counts(*c) for i, c in counts.items()}
-        table[int(mn)] = res
-        log(f"  min_neighbors {mn}: F1@0.3 {res[0.3]['F1']:.3f} (TPR {res[0.3]['TPR']:.3f}, FAR {res[0.3]['FAR']:.3f}),"
+        key = int(mn) if len(size_exps) == 1 else (int(mn), float(ex))
+        table[key] = res
+        log(f"  min_neighbors {mn} size exponent {ex:g}: F1@0.3 {res[0.3]['F1']:.3f} (TPR {res[0.3]['TPR']:.3f}, FAR {res[0.3]['FAR']:.3f}),"
             f" F1@0.5 {res[0.5]['F1']:.3f}")
-    best = max(table, key=lambda k: (table[k][iou]["F1"], -k))
+    best = max(table, key=lambda k: (table[k][iou]["F1"], -np.sum(k)))
     return best, table
 
 
