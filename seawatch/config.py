@@ -49,8 +49,6 @@ class DetectorSettings:
     max_area_frac: float = 0.25
     # cascade (paper A)
     cascade_model: str = ""  # empty: the shipped model
-    scale_factor: float = 1.1
-    min_neighbors: int = 5
     min_size_px: int = 0  # smallest boat to find, in pixels of the source image; 0: automatic
     detection_width_px: int = 0  # 0: automatic
     horizon_filter: bool = True
