@@ -251,12 +251,22 @@ def extract_windows(
     brightness_px: float = 20.0,
     blur_prob: float = 0.3,
     blur_sigma_px: float = 1.0,
+    lowres_prob: float = 0.0,
+    lowres_window_px: tuple[float, float] = (28.0, 60.0),
+    median_px: int = 3,
 ) -> np.ndarray:
     """Cut windows out of a grey image and resample them to ``size`` (width, height).
 
     With ``n_aug > 0`` each window gives ``n_aug`` augmented copies (the first one plain, the
     others with scale and shift jitter, horizontal flip, contrast and brightness change and
     blur) instead of one.
+
+    Low-resolution copies (``lowres_prob`` of the augmented ones): the window is rendered as a
+    camera that saw it ``lowres_window_px`` wide (drawn log-uniformly; only when the window
+    is wider in the source) would give it to the detector: area-downsampled to that width,
+    median-filtered (``median_px``, as the detector does on the source frame) and upscaled
+    linearly to ``size`` (the detector's detection scale).  Small, far boats (20-50 px) reach
+    the cascade this way, so a training set of large, sharp boats must contain such copies.
 
     Returns
     -------
@@ -272,7 +282,7 @@ def extract_windows(
     for x, y, w, h in wins:
         for r in range(reps):
             s, dx, dy, fl = 1.0, 0.0, 0.0, False
-            a, b, sig = 1.0, 0.0, 0.0
+            a, b, sig, lw = 1.0, 0.0, 0.0, 0.0
             if r > 0:
                 s = float(np.exp(rng.uniform(-scale_jitter, scale_jitter)))
                 dx = float(rng.uniform(-shift_jitter, shift_jitter)) * w
@@ -282,6 +292,9 @@ def extract_windows(
                 b = float(rng.uniform(-brightness_px, brightness_px))
                 if rng.random() < blur_prob:
                     sig = float(rng.uniform(0.3, blur_sigma_px))
+                if lowres_prob > 0 and rng.random() < lowres_prob:
+                    lo, hi = lowres_window_px
+                    lw = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
             ww, hh = w * s, h * s
             cx, cy = x + w / 2 + dx, y + h / 2 + dy
             sx = ww / out_w
@@ -296,7 +309,13 @@ def extract_windows(
                 m = np.array([[sx, 0, x0 + 0.5 * sx - 0.5], [0, sy, y0 + 0.5 * sy - 0.5]])
             patch = cv2.warpAffine(grey, m, (out_w, out_h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                    borderMode=cv2.BORDER_REFLECT)
-            if sig > 0:
+            if 0 < lw < w * s and lw < out_w:
+                small = cv2.resize(patch, (max(2, int(round(lw))), max(2, int(round(lw * out_h / out_w)))),
+                                   interpolation=cv2.INTER_AREA)
+                if median_px >= 3 and min(small.shape) >= median_px:
+                    small = cv2.medianBlur(small, median_px)
+                patch = cv2.resize(small, (out_w, out_h), interpolation=cv2.INTER_LINEAR)
+            elif sig > 0:
                 patch = cv2.GaussianBlur(patch, (0, 0), sig)
             if a != 1.0 or b != 0.0:
                 patch = np.clip(patch.astype(np.float32) * a + (b + (1 - a) * float(patch.mean())), 0, 255

@@ -60,6 +60,10 @@ class TrainSettings:
     features_per_stage: int = 6000
     n_aug: dict = field(default_factory=lambda: {"mardct": 24, "coral": 6, "sim": 4})
     min_box_w_px: float = 12.0  # smaller boxes are ignored (not positives, not negatives)
+    # share of augmented positives seen as a far boat would be: the window area-downsampled to
+    # lowres_window_px wide (boats of about 20-50 px), median 3x3, upscaled to the window
+    lowres_prob: float = 0.5
+    lowres_window_px: tuple[float, float] = (28.0, 60.0)
     max_positives: int = 6000
     neg_per_pos: float = 2.0
     neg_per_crop: int = 12
@@ -113,7 +117,8 @@ def collect_positives(images: list[LabelledImage], s: TrainSettings, rng: np.ran
             continue
         g = im.grey()
         wins = box_to_window(b, aspect, s.margin)
-        out.append(extract_windows(g, wins, size, rng, n_aug=int(s.n_aug.get(im.source, 4))))
+        out.append(extract_windows(g, wins, size, rng, n_aug=int(s.n_aug.get(im.source, 4)),
+                                   lowres_prob=s.lowres_prob, lowres_window_px=tuple(s.lowres_window_px)))
         src += [im.source] * len(out[-1])
     if not out:
         raise ValueError("no positive boxes in the training images")
