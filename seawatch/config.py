@@ -147,7 +147,7 @@ class FusionSettings:
     calib_max_offset_deg: float = 5.0
     theta0_deg: float = 15.0
     ais_unseen_dwell_s: float = 10.0
-    ais_warmup_s: float = 10.0  # no "no AIS" alert before AIS has been received this long
+    ais_warmup_s: float = 0.0  # no "no AIS" alert before AIS has been received this long (besides the per-track rule)
     no_ais_range_ratio: float = 1.5  # an AIS vessel within gate_deg and this range factor may be the camera's vessel
     min_vessel_length_m: float = 2.0  # tracks whose box implies a shorter vessel raise no "no AIS" alert
     min_visible_px: float = 8.0

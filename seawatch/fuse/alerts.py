@@ -26,9 +26,42 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Iterable
 
-__all__ = ["ALERT_KINDS", "Alert", "write_alerts_jsonl", "read_alerts_jsonl"]
+import numpy as np
+
+__all__ = ["ALERT_KINDS", "Alert", "write_alerts_jsonl", "read_alerts_jsonl", "ais_report_interval_s"]
 
 ALERT_KINDS = ("no_ais", "ais_not_seen", "possible_spoofing")
+
+KN_PER_MPS = 3600.0 / 1852.0
+
+
+def ais_report_interval_s(speed_mps, ais_class: str = "A"):
+    """Longest nominal interval between AIS position reports of a vessel at this speed.
+
+    ITU-R M.1371-5, Table 1 (class A, not turning: 3 min below 3 kn -- anchored, moored or
+    nearly stopped --, 10 s at 3-14 kn, 6 s at 14-23 kn, 2 s above) and class B "CS" (3 min at
+    2 kn or less, 30 s above).
+
+    Parameters
+    ----------
+    speed_mps : float or array_like
+        Speed over ground, m/s (NaN: unknown, which gives the slowest rate, 180 s).
+    ais_class : {"A", "B"}
+
+    Returns
+    -------
+    float or ndarray
+        Seconds.
+    """
+    kn = np.asarray(speed_mps, float) * KN_PER_MPS
+    kn = np.where(np.isfinite(kn), kn, 0.0)
+    if ais_class == "A":
+        out = np.select([kn < 3.0, kn <= 14.0, kn <= 23.0], [180.0, 10.0, 6.0], 2.0)
+    elif ais_class == "B":
+        out = np.where(kn <= 2.0, 180.0, 30.0)
+    else:
+        raise ValueError(f"ais_report_interval_s: ais_class must be 'A' or 'B', not {ais_class!r}")
+    return float(out) if out.ndim == 0 else out
 
 
 @dataclass

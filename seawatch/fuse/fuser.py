@@ -11,7 +11,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from seawatch.config import FusionSettings
-from seawatch.fuse.alerts import Alert
+from seawatch.fuse.alerts import KN_PER_MPS, Alert, ais_report_interval_s
 from seawatch.fuse.associate import (
     AngleHistory,
     TrackAngles,
@@ -212,7 +212,9 @@ class Fuser:
         self.n_updates = 0
         self.n_alerts: dict[str, int] = {"no_ais": 0, "ais_not_seen": 0, "possible_spoofing": 0}
         self._t_prev: float | None = None
-        self._ais_since: float | None = None  # AIS clock time of the first report received
+        # AIS clock time since which the AIS feed is live: the first report of a replay (a file may
+        # begin later than the video), the first update of a live listener
+        self._ais_since: float | None = None
         self.frame_el_offset_deg = 0.0
         self._last = None
         if ais is not None:
@@ -310,6 +312,8 @@ class Fuser:
             self.ais.add_reports(reps)
             if self._ais_since is None:
                 self._ais_since = min(t_ais, min(r.t_s for r in reps))
+        elif self._ais_since is None and self._feed.listeners:
+            self._ais_since = t_ais  # a live feed is live from when the fuser starts listening
         if self._radar is not None and self._radar_i < len(self._radar):
             j = int(np.searchsorted(self._radar["t_s"], t_ais, side="right"))
             if j > self._radar_i:
@@ -490,6 +494,46 @@ class Fuser:
             self._vel_cache[key] = (t_s, vel)
         return vel
 
+    def track_speed(self, tid: int, t_s: float | None = None) -> tuple[float, float, float, float]:
+        """Sea-surface speed (m/s) of a camera track, its cross-range part, and their standard errors.
+
+        A least-squares line through the track's waterline positions over the last
+        ``fusion.window_s`` (as :meth:`track_velocity`), standard errors from the fit's residuals.
+        The cross-range part (perpendicular to the line of sight) comes from the bearing rate,
+        which a camera measures well; the range part comes from the box's bottom edge, which a
+        changing box shape biases (one pixel is tens of metres of range at a kilometre).
+
+        Returns
+        -------
+        speed, speed_se, cross_speed, cross_se : float
+            NaN with fewer than 4 positions spanning 2 s.
+        """
+        nan = float("nan")
+        h = self._track_pos.get(int(tid))
+        if not h or len(h) < 4:
+            return nan, nan, nan, nan
+        a = np.asarray(h)
+        t_end = a[-1, 0] if t_s is None else t_s
+        a = a[a[:, 0] >= t_end - self.settings.window_s]
+        if len(a) < 4 or a[-1, 0] - a[0, 0] < 2.0:
+            return nan, nan, nan, nan
+        tt = a[:, 0] - a[:, 0].mean()
+        den = float(np.sum(tt * tt))
+        mean = a[:, 1:3].mean(axis=0)
+        xy = a[:, 1:3] - mean
+        # line-of-sight frame at the mean position: (cross-range, range)
+        r = float(np.hypot(mean[0], mean[1]))
+        ur = mean / r if r > 0 else np.array([0.0, 1.0])
+        uc = np.array([ur[1], -ur[0]])
+        comp = np.stack([xy @ uc, xy @ ur], axis=1)
+        v = (tt @ comp) / den
+        res = comp - tt[:, None] * v[None, :]
+        var = np.sum(res * res, axis=0) / (len(a) - 2) / den  # variance of each slope
+        sp = float(math.hypot(v[0], v[1]))
+        se = float(math.sqrt((v[0] ** 2 * var[0] + v[1] ** 2 * var[1]) / sp ** 2)) if sp > 0 else float(
+            math.sqrt(var.sum()))
+        return sp, se, float(abs(v[0])), float(math.sqrt(var[0]))
+
     def _theta_update(self, t_ais, cam, tracks, ta, st, tg, d2, keys) -> None:
         """Collect velocity pairs for the paper's theta (rotation camera -> VTS/AIS frame)."""
         if len(tracks) == 0 or len(st) == 0 or t_ais - self._theta_last_t < 1.0:
@@ -614,12 +658,7 @@ class Fuser:
         # "no AIS" is claimed only when no AIS vessel could be this one: none within gate_deg of the
         # box's azimuth extent at a range within a factor range_ratio_max (an identified vessel's
         # wake or a fragment of its box is not a vessel without AIS)
-        plausible = np.zeros((len(ids), len(st)), bool)
-        if len(st) and len(ids):
-            daz = np.abs(angle_diff_deg(ta.az_deg[:, None], tg.az_deg[None, :])) - ta.half_width_deg[:, None]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                lr = np.abs(np.log(ta.range_m[:, None] / np.maximum(tg.range_m[None, :], 1.0)))
-            plausible = (daz <= s.gate_deg) & ((lr <= math.log(s.no_ais_range_ratio)) | ~np.isfinite(lr))
+        plausible = self._could_be(ta, st, tg) if len(ids) else np.zeros((0, len(st)), bool)
         for tid in list(self._track_seen):
             if t - self._track_seen[tid] > 60.0:
                 for dct in (self._track_seen, self._first_conf, self._last_plausible, self._history, self._spoof_since):
@@ -671,7 +710,6 @@ class Fuser:
             if plausible.shape[1] and plausible[i].any():
                 self._last_plausible[tid] = t
             start = max(self._first_conf[tid], self._last_plausible.get(tid, -np.inf))
-            warm = self._ais_since is not None and t_ais - self._ais_since >= s.ais_warmup_s
             if tid in self._no_ais_alerted:
                 self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
                 continue
@@ -679,18 +717,56 @@ class Fuser:
             length_m = 2.0 * math.radians(ta.half_width_deg[i]) * ta.range_m[i]
             if length_m < s.min_vessel_length_m:
                 continue
-            if warm and t - start >= s.no_ais_dwell_s:
-                self._no_ais_alerted.add(tid)
-                self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
-                if self._inherits_no_ais(tid, t, float(ta.e_m[i]), float(ta.n_m[i])):
-                    continue  # a new track of a vessel already flagged: no second alert
-                msg = (f"no AIS: camera track {tid} at bearing {ta.az_deg[i]:.1f} deg, range "
-                       f"{ta.range_m[i]:.0f} m has no AIS counterpart for {t - start:.0f} s")
-                out.append(self._alert(t, "no_ais", msg, tid, 0, world[i, 0], world[i, 1], ta.az_deg[i]))
+            if t - start < s.no_ais_dwell_s:
+                continue
+            # an AIS vessel never heard is excluded only once the feed has been live for the
+            # reporting interval of a (class A) vessel moving as this one does, plus the latency
+            # (at the lower bound of its speed: a slower vessel reports less often; the cross-range
+            # speed, from the bearing rate, is a lower bound that a drifting box bottom cannot inflate)
+            speed, _, cross, cross_se = self.track_speed(tid, t_ais)
+            need_s = ais_report_interval_s(max(cross - 2.0 * cross_se, 0.0) if np.isfinite(cross_se) else np.nan, "A")
+            live_s = -np.inf if self._ais_since is None else t_ais - self._ais_since
+            if live_s < max(need_s + s.ais_latency_s, s.ais_warmup_s):
+                continue
+            self._no_ais_alerted.add(tid)
+            self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
+            if self._inherits_no_ais(tid, t, float(ta.e_m[i]), float(ta.n_m[i])):
+                continue  # a new track of a vessel already flagged: no second alert
+            msg = (f"no AIS: camera track {tid} at bearing {ta.az_deg[i]:.1f} deg, range {ta.range_m[i]:.0f} m, "
+                   f"{speed * KN_PER_MPS:.0f} kn, has no AIS counterpart for {t - start:.0f} s "
+                   f"(AIS feed live {live_s:.0f} s")
+            need_b = ais_report_interval_s(speed, "B")
+            msg += ")" if live_s >= need_b + s.ais_latency_s else (
+                f"; a class B transponder, reporting every {need_b:.0f} s, is not yet excluded)")
+            out.append(self._alert(t, "no_ais", msg, tid, 0, world[i, 0], world[i, 1], ta.az_deg[i]))
         # -- AIS in view but not seen
         if len(st):
             out.extend(self._unseen_alerts(t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed))
         return out
+
+    def _could_be(self, ta: TrackAngles, st, tg) -> np.ndarray:
+        """(N, M) whether AIS vessel j could be what camera track i shows (its hull, or part of it).
+
+        In azimuth: within ``gate_deg`` of the box's extent, widened by the vessel's reported
+        length seen at its range (the antenna may be anywhere on the hull, and a detector box
+        may cover only part of a long vessel).  In range: the waterline ranges agree within a
+        factor ``no_ais_range_ratio``, or the vessel's waterline lies below the box's bottom by
+        at most the box's angular height (a box covering only the upper part of a hull, whose
+        bottom is then above the waterline) or above it by at most ``sigma_el_deg``.
+        """
+        s = self.settings
+        if not len(st):
+            return np.zeros((len(ta.az_deg), 0), bool)
+        hull = np.where(np.isfinite(st.length_m), np.degrees(np.arctan2(np.nan_to_num(st.length_m),
+                                                                         np.maximum(tg.range_m, 1.0))), 0.0)
+        daz = (np.abs(angle_diff_deg(ta.az_deg[:, None], tg.az_deg[None, :])) - ta.half_width_deg[:, None]
+               - hull[None, :])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lr = np.abs(np.log(ta.range_m[:, None] / np.maximum(tg.range_m[None, :], 1.0)))
+        h = 2.0 * (ta.half_height_deg if ta.half_height_deg is not None else np.zeros_like(ta.el_deg))
+        de = tg.el_deg[None, :] - ta.el_deg[:, None]
+        el_ok = (de >= -h[:, None] - s.sigma_el_deg) & (de <= s.sigma_el_deg)
+        return (daz <= s.gate_deg) & ((lr <= math.log(s.no_ais_range_ratio)) | ~np.isfinite(lr) | el_ok)
 
     def _inherits_no_ais(self, tid: int, t: float, e: float, n: float) -> bool:
         """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked."""
