@@ -240,3 +240,59 @@ def test_weight_trimming_keeps_both_classes():
     res = train_stage(vals, y, np.arange(10), min_hit_rate=0.995, max_false_alarm=0.3, max_weak_count=10,
                       n_bins=32, rng=rng)
     assert res.false_alarm <= 0.3
+
+
+def test_lowres_augmentation_renders_far_boats():
+    """Low-resolution copies lose the fine detail a far boat lacks; plain cuts and small windows
+    (already low resolution) are left as they are."""
+    rng = np.random.default_rng(4)
+    img = np.zeros((200, 400), np.uint8)
+    img[:, (np.arange(400) // 2) % 2 == 0] = 200  # 4 px period: detail a 28-40 px wide view cannot resolve
+    win = np.array([[100.0, 50.0, 120.0, 60.0]])
+
+    def detail(p):
+        return float(np.abs(np.diff(p.astype(float), axis=1)).mean())
+
+    sharp = extract_windows(img, win, (W, H), np.random.default_rng(0), n_aug=6, contrast=(1, 1),
+                            brightness_px=0, blur_prob=0, scale_jitter=0, shift_jitter=0)
+    low = extract_windows(img, win, (W, H), np.random.default_rng(0), n_aug=6, contrast=(1, 1),
+                          brightness_px=0, blur_prob=0, scale_jitter=0, shift_jitter=0,
+                          lowres_prob=1.0, lowres_window_px=(28.0, 40.0))
+    assert np.array_equal(low[0], sharp[0])  # the first copy is the plain cut
+    assert all(detail(p) < 0.25 * detail(sharp[k]) for k, p in enumerate(low[1:], 1))
+    # a window already narrower than the low-resolution width is not degraded further
+    small = np.array([[100.0, 50.0, 24.0, 12.0]])
+    plain = dict(n_aug=4, blur_prob=0, scale_jitter=0, shift_jitter=0, flip=False, contrast=(1, 1), brightness_px=0)
+    a = extract_windows(img, small, (W, H), np.random.default_rng(1), **plain)
+    b = extract_windows(img, small, (W, H), np.random.default_rng(1), lowres_prob=1.0,
+                        lowres_window_px=(28.0, 40.0), **plain)
+    assert np.array_equal(a, b)
+
+
+def test_detector_settings_are_chosen_over_boat_sizes(trained):
+    """Every annotated boat is counted once per scan in its size bin, and the choice is the
+    table's best score."""
+    from seawatch.train.recipe import select_detector_settings
+
+    _, _, xml = trained
+    images = _synthetic_images(3, 700)
+    mults = (1.0, 2.0)
+    best, table = select_detector_settings(xml, images, scale_factors=(1.2,), min_size_mults=mults,
+                                           candidates=(1, 3, 8), size_exps=(0.0, 1.0), log=lambda m: None)
+    assert len(table) == 6
+    top = max(v["score"] for v in table.values())
+    assert np.mean([best["macro_F1@0.3"], best["macro_F1@0.5"]]) == pytest.approx(top)
+    # boats counted: those at least 0.8 smallest boats wide, per scan
+    from seawatch.detect.cascade import CascadeDetector
+    det = CascadeDetector(xml)
+    n = 0
+    for im in images:
+        w = im.grey().shape[1]
+        for m in mults:
+            det.params.min_size_px = max(12.0, w / 16.0) * m
+            n += int((im.boxes[:, 2] >= 0.8 * det.min_boat_px(w)).sum())
+    assert sum(best["boats_by_bin"]) == n
+    for v in table.values():
+        c = np.asarray(v["counts"])
+        assert (c[0, :, 0] + c[0, :, 2]).sum() == n  # TP + FN = boats, at every threshold
+        assert c[0, :, 0].sum() >= c[1, :, 0].sum()  # IoU 0.3 matches at least as many as 0.5
