@@ -150,6 +150,7 @@ class FusionSettings:
     ais_warmup_s: float = 0.0  # no "no AIS" alert before AIS has been received this long (besides the per-track rule)
     no_ais_range_ratio: float = 1.5  # an AIS vessel within gate_deg and this range factor may be the camera's vessel
     min_vessel_length_m: float = 2.0  # tracks whose box implies a shorter vessel raise no "no AIS" alert
+    wake_s: float = 10.0  # a track born on another vessel's trail of the last wake_s is its wake (0: off)
     min_visible_px: float = 8.0
     max_visible_range_m: float = 8000.0
     spoof_dwell_s: float = 5.0

@@ -413,3 +413,122 @@ def test_swaying_camera_common_elevation_error_is_measured():
     fuser_off = Fuser(CAM, FusionSettings(frame_align_min_pairs=0), ais=ais_reports(vessels, -60.0, 60.0))
     fuser_off.update(render_tracks(vessels, 0.0), None, 0.0)
     assert fuser_off.frame_el_offset_deg == 0.0
+
+
+# ------------------------------------------------- "no AIS": reporting intervals, plausibility, wakes
+def test_ais_report_interval_table():
+    from seawatch.fuse import ais_report_interval_s
+
+    kn = 1852.0 / 3600.0
+    assert ais_report_interval_s(1.0 * kn) == 180.0  # nearly stopped, class A: 3 minutes
+    assert ais_report_interval_s(10.0 * kn) == 10.0
+    assert ais_report_interval_s(15.0 * kn) == 6.0
+    assert ais_report_interval_s(30.0 * kn) == 2.0
+    assert ais_report_interval_s(float("nan")) == 180.0  # unknown speed: the slowest rate
+    assert ais_report_interval_s(1.0 * kn, "B") == 180.0 and ais_report_interval_s(5.0 * kn, "B") == 30.0
+    assert np.array_equal(ais_report_interval_s(np.array([1.0, 10.0, 30.0]) * kn), [180.0, 10.0, 2.0])
+    with pytest.raises(ValueError):
+        ais_report_interval_s(1.0, "C")
+
+
+def _no_ais_times(alerts):
+    out = {}
+    for a in alerts:
+        if a.kind == "no_ais":
+            out.setdefault(a.track_id, a.t_s)
+    return out
+
+
+def test_no_ais_waits_for_the_reporting_interval_of_a_vessel_at_that_speed():
+    fast = Vessel(8, 0, 800.0, 0.0, 0.0, 8.0, length_m=8.0)  # 15.5 kn across the line of sight
+    slow = Vessel(9, 0, 700.0, -250.0, 0.0, 0.8, length_m=12.0)  # 1.6 kn: AIS class A reports every 3 min
+    ship = Vessel(1, 235000081, 2000.0, 600.0, 0.0, 2.0, length_m=60.0)
+    # cold start: the AIS feed starts with the video (first report at t = 0)
+    fuser = Fuser(CAM, FusionSettings(), ais=ais_reports([ship], 0.0, 60.0))
+    _, alerts = run(fuser, [fast, slow, ship], 0.0, 30.0)
+    got = _no_ais_times(alerts)
+    # 6 s (class A at 14-23 kn) + 2 s tolerated latency of AIS; not the 5 s dwell alone
+    assert 8.0 - 1e-6 <= got[8] <= 8.5
+    assert 9 not in got  # a slow vessel cannot be told from an unheard class A one for 3 minutes
+    assert "class B" in next(a.message for a in alerts if a.track_id == 8)
+    # a warm feed (live for minutes): both after the 5 s dwell
+    fuser = Fuser(CAM, FusionSettings(), ais=ais_reports([ship], -200.0, 60.0))
+    _, alerts = run(fuser, [fast, slow, ship], 0.0, 30.0)
+    got = _no_ais_times(alerts)
+    assert set(got) == {8, 9} and max(got.values()) <= FusionSettings().no_ais_dwell_s + 0.5
+
+
+class _SilentListener:
+    def poll(self):
+        return []
+
+
+def test_no_ais_with_a_live_listener_counts_from_when_listening_starts():
+    fast = Vessel(8, 0, 800.0, -800.0, 0.0, 8.0, length_m=8.0)  # at (800, 0) at t = 100 s
+    fuser = Fuser(CAM, FusionSettings(), ais=_SilentListener())
+    _, alerts = run(fuser, [fast], 100.0, 115.0)
+    got = _no_ais_times(alerts)
+    assert 108.0 - 1e-6 <= got[8] <= 108.5
+
+
+def _fragment_run(static: bool):
+    # a 200 m ship whose AIS antenna is 160 m ahead of the part of the hull the detector boxes
+    ship = Vessel(1, 235000091, 1500.0, 0.0, 0.0, 2.0, length_m=200.0)
+    reps = [r for r in ais_reports([ship], -60.0, 60.0) if static or r.msg_type != 5]
+    fuser = Fuser(CAM, FusionSettings(), ais=reps)
+    alerts = []
+    for k in range(0, 76):
+        t = k * 0.2
+        e, n = ship.enu(t)
+        u, v, _ = CAM.enu_to_pixel(e, n - 160.0, 0.0)
+        w = 40.0 * CAM.intrinsics.fx / math.hypot(e, n - 160.0)
+        tr = Tracks(t, k, np.array([5]), np.array([[u - w / 2, v - 0.3 * w, w, 0.3 * w]]))
+        alerts += fuser.update(tr, None, t)[1]
+    return [a for a in alerts if a.kind == "no_ais"]
+
+
+def test_no_ais_not_raised_for_a_box_on_part_of_a_long_vessel():
+    assert _fragment_run(static=True) == []  # the reported length (message 5) covers the box
+    assert [a.track_id for a in _fragment_run(static=False)] == [5]  # unknown length: the box is 6 deg away
+
+
+def _upper_box_run(box_height_deg: float):
+    # a ship at 1000 m boxed whole (track 1) and, by a second track, only above 0.5 deg over its waterline
+    ship = Vessel(1, 235000095, 1000.0, 0.0, 0.0, 2.0, length_m=60.0)
+    fuser = Fuser(CAM, FusionSettings(), ais=ais_reports([ship], -60.0, 60.0))
+    px = CAM.intrinsics.fy * math.pi / 180.0  # pixels per degree
+    alerts = []
+    for k in range(0, 76):
+        t = k * 0.2
+        full = render_tracks([ship], t)
+        b = full.boxes[0]
+        bottom = b[1] + b[3] - 0.5 * px
+        up = np.array([b[0], bottom - box_height_deg * px, b[2], box_height_deg * px])
+        tr = Tracks(t, k, np.array([1, 7]), np.vstack([b, up]))
+        alerts += fuser.update(tr, None, t)[1]
+    return [a for a in alerts if a.kind == "no_ais"]
+
+
+def test_no_ais_not_raised_for_a_box_on_the_upper_part_of_a_hull():
+    # its bottom 0.5 deg above the waterline puts it 1.8x farther than the ship, but a box that tall
+    # can be the upper part of the ship's hull
+    assert _upper_box_run(0.8) == []
+    assert [a.track_id for a in _upper_box_run(0.1)] == [7]  # a thin strip that far above is something else
+
+
+def _wake_run(wake_s: float):
+    # an AIS vessel crosses at 12 m/s; where it was at t = 3 s a patch of foam is tracked from 5 to 16 s
+    ship = Vessel(1, 235000097, 800.0, -200.0, 0.0, 12.0, length_m=20.0)
+    fuser = Fuser(CAM, FusionSettings(wake_s=wake_s), ais=ais_reports([ship], -200.0, 60.0))
+    foam = Vessel(6, 0, *ship.enu(3.0), 0.0, 0.0, length_m=8.0)
+    alerts = []
+    for k in range(0, 101):
+        t = k * 0.2
+        tr = render_tracks([ship, foam] if 5.0 <= t <= 16.0 else [ship], t)
+        alerts += fuser.update(tr, None, t)[1]
+    return [a for a in alerts if a.kind == "no_ais"]
+
+
+def test_no_ais_not_raised_for_a_track_born_on_a_vessels_trail():
+    assert _wake_run(10.0) == []
+    assert [a.track_id for a in _wake_run(0.0)] == [6]  # without the wake rule: a false "no AIS"

@@ -39,7 +39,7 @@ estimates), :mod:`seawatch.fuse.alerts`.  See ``docs/fusion.md``.
 
 from __future__ import annotations
 
-from seawatch.fuse.alerts import ALERT_KINDS, Alert, read_alerts_jsonl, write_alerts_jsonl
+from seawatch.fuse.alerts import ALERT_KINDS, Alert, ais_report_interval_s, read_alerts_jsonl, write_alerts_jsonl
 from seawatch.fuse.fuser import Calibration, Fuser
 from seawatch.fuse.table import TargetTable, dead_reckon_enu, dead_reckon_geodetic
 
@@ -49,6 +49,7 @@ __all__ = [
     "Calibration",
     "Fuser",
     "TargetTable",
+    "ais_report_interval_s",
     "build_fuser",
     "dead_reckon_enu",
     "dead_reckon_geodetic",

@@ -191,6 +191,7 @@ class Fuser:
         self._theta_last_t = -np.inf
         self._calib_last_t = -np.inf
         self._track_pos: dict[int, deque] = {}
+        self._born: dict[int, float] = {}  # track id -> AIS-clock time first seen
         self._vel_cache: dict = {}
         self._feed = _AISFeed()
         self._radar: np.ndarray | None = None
@@ -462,12 +463,14 @@ class Fuser:
             h = self._track_pos.get(tid)
             if h is None:
                 h = self._track_pos[tid] = deque(maxlen=64)
+                self._born.setdefault(tid, t_ais)
             if math.isfinite(ee) and math.isfinite(en) and (not h or t_ais - h[-1][0] >= 0.2):
                 h.append((t_ais, ee, en))
         if len(self._track_pos) > 4 * max(len(tracks), 16):
             live = set(tracks.ids.tolist())
             for tid in [k for k, h in self._track_pos.items() if k not in live and (not h or t_ais - h[-1][0] > 60)]:
                 del self._track_pos[tid]
+                self._born.pop(tid, None)
 
     def track_velocity(self, tid: int, t_s: float | None = None, window_s: float | None = None) -> np.ndarray:
         """Least-squares sea-surface velocity (east, north) m/s of a camera track over the last
@@ -719,6 +722,9 @@ class Fuser:
                 continue
             if t - start < s.no_ais_dwell_s:
                 continue
+            if self._on_wake(tid, t_ais, cam):
+                self._last_plausible[tid] = t  # a patch of another vessel's wake: not (yet) a vessel
+                continue
             # an AIS vessel never heard is excluded only once the feed has been live for the
             # reporting interval of a (class A) vessel moving as this one does, plus the latency
             # (at the lower bound of its speed: a slower vessel reports less often; the cross-range
@@ -767,6 +773,32 @@ class Fuser:
         de = tg.el_deg[None, :] - ta.el_deg[:, None]
         el_ok = (de >= -h[:, None] - s.sigma_el_deg) & (de <= s.sigma_el_deg)
         return (daz <= s.gate_deg) & ((lr <= math.log(s.no_ais_range_ratio)) | ~np.isfinite(lr) | el_ok)
+
+    def _on_wake(self, tid: int, t_ais: float, cam) -> bool:
+        """Whether a track was born, and still is, on the recent trail of an older confirmed track.
+
+        A vessel leaves a wake (a turning one a patch of foam) that a background-subtraction
+        detector tracks as a new object where the vessel was a few seconds earlier.  A track
+        born after another confirmed track passed its position, within the last
+        ``fusion.wake_s``, is taken as that vessel's wake while it stays on the trail (within 10 m
+        plus the range error of 2 pixels of waterline).
+        """
+        s = self.settings
+        h = self._track_pos.get(tid)
+        born = self._born.get(tid)
+        if s.wake_s <= 0 or not h or born is None:
+            return False
+        _, e, n = h[-1]
+        r = math.hypot(e, n)
+        tol = 10.0 + 2.0 * r * r / max(cam.pose.height_m * cam.intrinsics.fy, 1e-9)
+        for other, oh in self._track_pos.items():
+            if other == tid or other not in self._first_conf or self._born.get(other, np.inf) >= born or not oh:
+                continue
+            a = np.asarray(oh)
+            a = a[(a[:, 0] >= t_ais - s.wake_s) & (a[:, 0] <= born)]
+            if len(a) and float(np.min(np.hypot(a[:, 1] - e, a[:, 2] - n))) <= tol:
+                return True
+        return False
 
     def _inherits_no_ais(self, tid: int, t: float, e: float, n: float) -> bool:
         """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked."""
