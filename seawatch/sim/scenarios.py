@@ -449,12 +449,17 @@ def _harbour(seed, width, height, duration_s, fps, ir=False, name="harbour"):
     opts = RenderOptions(ir=ir, noise_sigma=2.5 if ir else 2.0, blur_sigma_px=0.7 if ir else 0.0,
                          glint=0.0 if ir else 1.0, wave_contrast=0.5 if ir else 1.0)
     desc = ("fixed harbour camera, six vessels (ferry, sailboat, RIB without AIS, fishing boat, cargo ship, tug), "
-            "the ferry partly hides the sailboat, a coastline with buildings")
+            "the ferry partly hides the sailboat, a coastline with buildings, the fishing boat's AIS position "
+            "spoofed 300 m west (out of the view) from t = 20 s")
     if ir:
-        desc = "thermal (IR, white-hot) view of a harbour at dusk: halo around warm vessels, no glints"
+        desc = ("thermal (IR, white-hot) view of a harbour at dusk: halo around warm vessels, no glints; the "
+                "fishing boat's AIS position spoofed from t = 20 s")
+    # the fishing boat's AIS positions are shifted 300 m west, across the camera's bearing (its
+    # reported position leaves the field of view), from t = 20 s
+    spoof = AISConfig(spoof_mmsi=vs[3].mmsi, spoof_offset_m=(-300.0, 0.0), spoof_from_s=20.0)
     return Scenario(name, World(vs), cam, fps=fps or 10.0, duration_s=duration_s or 45.0, sky=sky, coasts=coasts,
                     options=opts, seed=seed, camera_id="cam0", description=desc,
-                    radar_config=RadarConfig(sector_deg=(90.0, 250.0)))
+                    radar_config=RadarConfig(sector_deg=(90.0, 250.0)), ais_config=spoof)
 
 
 def _ir(seed, width, height, duration_s, fps):
