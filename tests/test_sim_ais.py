@@ -63,8 +63,17 @@ def test_reports_follow_the_truth(harbour):
     assert set(tr["mmsi"]) == {m for m in ids if m}
     e, n, _ = pymap3d.geodetic2enu(pos["lat"], pos["lon"], 0.0, *harbour.origin, 0.0)
     et, nt, _ = pymap3d.geodetic2enu(pos["lat_true"], pos["lon_true"], 0.0, *harbour.origin, 0.0)
-    err = np.hypot(e - et, n - nt)
+    honest = ~pos["spoofed"]
+    err = np.hypot(e - et, n - nt)[honest]
     assert 1.0 < np.median(err) < 15.0 and err.max() < 60.0  # GNSS noise of a few metres
+    # harbour's spoofed vessel: its reports after spoof_from_s carry the configured offset (plus noise)
+    cfg = harbour.ais_config
+    sp = pos["spoofed"]
+    assert sp.any() and set(pos["mmsi"][sp]) == {cfg.spoof_mmsi}
+    assert np.all(pos["t_tx_s"][sp] >= cfg.spoof_from_s)
+    assert not np.any((pos["mmsi"] == cfg.spoof_mmsi) & (pos["t_tx_s"] >= cfg.spoof_from_s) & ~sp)
+    off = np.hypot(e[sp] - et[sp] - cfg.spoof_offset_m[0], n[sp] - nt[sp] - cfg.spoof_offset_m[1])
+    assert off.max() < 60.0
     # the true positions are the vessels' positions at the transmit times
     for row in pos[:20]:
         v = next(v for v in harbour.vessels if v.mmsi == row["mmsi"])
