@@ -357,7 +357,9 @@ class StableFeatureExtractor:
         Stable matches needed to fit the camera model (fewer: all matches; fewer than 4: the
         mean displacement; none: no motion).
     flann_trees, flann_checks : int
-        FLANN randomised kd-tree parameters.
+        FLANN randomised kd-tree parameters; ``flann_trees`` 0 (default) uses FLANN's linear
+        (exact) index instead, which is deterministic and costs the same at a few hundred
+        active features.
     nominal_fps : float
         Frame rate assumed for the first frame and when two frames share a time stamp.
     subpixel : bool
@@ -410,7 +412,7 @@ class StableFeatureExtractor:
         camera_motion: str = "similarity",
         ransac_px: float = 0.5,
         min_camera_matches: int = 8,
-        flann_trees: int = 4,
+        flann_trees: int = 0,
         flann_checks: int = 32,
         nominal_fps: float = 25.0,
         subpixel: bool = True,
@@ -554,7 +556,10 @@ class StableFeatureExtractor:
         """(query index, active slot) of the matches passing the quality test, one per slot."""
         if len(act) < 2 or len(desc) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        index = cv2.flann_Index(self._desc[act], dict(algorithm=1, trees=self.flann_trees))
+        # FLANN's linear index is exact and deterministic (the randomised kd-trees are neither,
+        # and cost the same at a few hundred features)
+        algo = dict(algorithm=1, trees=self.flann_trees) if self.flann_trees > 0 else dict(algorithm=0)
+        index = cv2.flann_Index(self._desc[act], algo)
         nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
         nn = nn.astype(np.int64)
         q = match_quality(dist[:, 0], dist[:, 1])

@@ -27,12 +27,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from seawatch.detect.features import FeatureSnapshot, StableFeatureExtractor
+from seawatch.detect.features import FeatureSnapshot, StableFeatureExtractor, to_grey_u8
 from seawatch.types import Detections, Frame, Tracks, TrackState
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "ClusterParams",
     "FeatureClusterer",
     "StableFeatureTracker",
+    "grow_boxes",
 ]
 
 NO_COMMON_FRAME = 1000.0  # dissimilarity of two features that were never seen in the same frame
@@ -363,6 +365,93 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
+def grow_boxes(
+    image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
+    k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
+    peak_frac: float = 0.3, return_contrast: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """Grow each cluster's box to the object around it with a local segmentation.
+
+    A cluster's features lie inside the hull, so the extent of its features is smaller than the
+    object.  Around each box, a window grown by ``grow`` times the box's larger side (at least
+    ``min_grow_px``) on every side is segmented against its background: each row's background
+    is the median of the window's left and right border strips (a tenth of the window wide, at
+    least ``border_px``; this follows the sky-to-sea gradient at the horizon), a pixel is foreground where it differs from it by
+    more than the larger of ``k_sigma`` times the border's robust noise and ``min_contrast``
+    grey levels (in any colour channel) and than ``peak_frac`` times the contrast inside the
+    cluster's core (the features' extent; this leaves out a thermal halo), and the foreground's
+    connected components that touch the core and not the window's edge make the new box.  The box is kept as it was
+    when nothing touches the core or the foreground fills more than ``max_fill`` of the window
+    (a textured background, not one object), and when the core itself does not stand out from
+    the background.  Not in the paper.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) image, in the pixels of the boxes.
+    boxes : (N, 2) ... (N, 4) boxes ``x, y, w, h``.
+    cores : (N, 4) the features' extent ``x, y, w, h`` of each cluster (within its box).
+
+    Returns
+    -------
+    boxes : (N, 4) float64 grown boxes.
+    contrast : (N,) float64, only with ``return_contrast``: the core's contrast (90th percentile
+        of its difference from the background) over the background's robust noise (at least 1
+        grey level); NaN where the window is too small to tell.
+    """
+    img = np.asarray(image)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    hh, ww = img.shape[:2]
+    out = np.array(boxes, np.float64, copy=True).reshape(-1, 4)
+    cores = np.asarray(cores, np.float64).reshape(-1, 4)
+    b = int(border_px)
+    contrast = np.full(len(out), np.nan)
+    for n in range(len(out)):
+        x, y, w, h = out[n]
+        gx = gy = max(min_grow_px, grow * max(w, h))  # features often lie along a line
+        x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))
+        x1, y1 = int(min(ww, np.ceil(x + w + gx))), int(min(hh, np.ceil(y + h + gy)))
+        bw = max(b, int(round(0.1 * (x1 - x0))))
+        if x1 - x0 < 2 * bw + 3 or y1 - y0 < 3:
+            continue
+        win = img[y0:y1, x0:x1].astype(np.float32)
+        ring = np.concatenate([win[:, :bw], win[:, -bw:]], axis=1)  # (rows, 2 bw, C)
+        bg = np.median(ring, axis=1)  # (rows, C)
+        dev_ring = np.abs(ring - bg[:, None, :]).max(axis=2)
+        sigma = 1.4826 * float(np.median(dev_ring))
+        dev = np.abs(win - bg[:, None, :]).max(axis=2)
+        cx, cy, cw, ch = cores[n]
+        c0x, c0y = int(max(0, np.floor(cx)) - x0), int(max(0, np.floor(cy)) - y0)
+        c1x, c1y = int(np.ceil(cx + cw)) - x0 + 1, int(np.ceil(cy + ch)) - y0 + 1
+        c0x, c0y = max(c0x, 0), max(c0y, 0)
+        core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
+        peak = float(np.percentile(dev[core], 90)) if dev[core].size else 0.0
+        contrast[n] = peak / max(sigma, 1.0)
+        if peak <= max(k_sigma * sigma, min_contrast):
+            continue  # the core does not stand out: nothing to grow to
+        thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
+        fg = (dev > thr).astype(np.uint8)
+        if fg.mean() > max_fill:
+            continue
+        fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+        nlab, lab = cv2.connectedComponents(fg, connectivity=8)
+        if nlab <= 1:
+            continue
+        sub = lab[core]
+        hit = np.unique(sub[sub > 0])
+        # a component reaching the window's edge is background structure (coast, horizon,
+        # sea texture), not the object
+        edge = np.unique(np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]])
+        hit = np.setdiff1d(hit, edge)
+        if len(hit) == 0:
+            continue
+        ys, xs = np.nonzero(np.isin(lab, hit))
+        nx0, nx1 = xs.min() + x0, xs.max() + x0 + 1
+        ny0, ny1 = ys.min() + y0, ys.max() + y0 + 1
+        out[n] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
+    return (out, contrast) if return_contrast else out
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px)."""
@@ -380,6 +469,11 @@ class ClusterParams:
     label_memory_s: float = 2.0
     confirm_s: float = 0.4
     box_pad: float = 1.0
+    grow_box: float = 0.0
+    grow_peak_frac: float = 0.3
+    relink_s: float = 0.0
+    relink_px: float = 20.0
+    min_contrast: float = 0.0
 
 
 class FeatureClusterer:
@@ -410,11 +504,76 @@ class FeatureClusterer:
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s)
         self.last_labels = np.zeros(0, np.int64)
+        self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
+        self._relink_reset()
+
+    def _relink_reset(self) -> None:
+        self._alias: dict[int, int] = {}  # cluster identity -> reported identity
+        self._known: set[int] = set()  # cluster identities seen
+        self._lost: dict[int, tuple[float, np.ndarray]] = {}  # reported identity -> (time lost, box)
+        self._prev_boxes: dict[int, np.ndarray] = {}  # reported identity -> last box
+        self._birth: dict[int, float] = {}  # reported identity -> first time reported
 
     def reset(self) -> None:
         self.graph.reset()
         self.noise_px_s = float("nan")
+        self._relink_reset()
+
+    def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Reported identities of this frame's clusters: a cluster born within ``relink_s`` of
+        the loss of a reported identity, where that identity's last box (carried by the
+        camera's motion) lies within ``relink_px`` (or overlaps), takes that identity (not in
+        the paper: a boat whose features all drop out for a moment keeps its identity)."""
+        p = self.params
+        t = snap.t_s
+        h = np.asarray(snap.homography, np.float64)
+        sc = float(np.sqrt(abs(np.linalg.det(h[:2, :2])))) if np.all(np.isfinite(h)) else 1.0
+
+        def carry(b):
+            c = np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3], 1.0])
+            q = h @ c
+            if not np.all(np.isfinite(q)) or abs(q[2]) < 1e-12:
+                return b
+            w, hh = b[2] * sc, b[3] * sc
+            return np.array([q[0] / q[2] - 0.5 * w, q[1] / q[2] - 0.5 * hh, w, hh])
+
+        self._lost = {k: (tl, carry(b)) for k, (tl, b) in self._lost.items() if t - tl <= p.relink_s}
+        rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
+        new = [i for i, c in enumerate(cids) if int(c) not in self._known]
+        present = set(int(r) for r in rep)
+        for i in new:
+            cand = [k for k in self._lost if k not in present]
+            if not cand:
+                break
+            b = boxes[i]
+            cb = np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
+            best, best_d = None, np.inf
+            for k in cand:
+                lb = self._lost[k][1]
+                cl = np.array([lb[0] + 0.5 * lb[2], lb[1] + 0.5 * lb[3]])
+                gap = np.maximum(np.abs(cb - cl) - 0.5 * (b[2:] + lb[2:]), 0.0)  # 0 when overlapping
+                d = float(np.hypot(*gap))
+                if d <= p.relink_px and d < best_d:
+                    best, best_d = k, d
+            if best is not None:
+                self._alias[int(cids[i])] = best
+                rep[i] = best
+                present.add(best)
+                del self._lost[best]
+        # one reported identity per frame: a duplicate falls back to its own identity
+        _, first = np.unique(rep, return_index=True)
+        dup = np.setdiff1d(np.arange(len(rep)), first)
+        for i in dup:
+            self._alias.pop(int(cids[i]), None)
+            rep[i] = int(cids[i])
+        self._known.update(int(c) for c in cids)
+        now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
+        for k, b in self._prev_boxes.items():
+            if k not in now:
+                self._lost[k] = (t, carry(b))
+        self._prev_boxes = now
+        return rep
 
     @property
     def min_speed_px_s(self) -> float:
@@ -424,8 +583,12 @@ class FeatureClusterer:
             return p.min_speed_px_s
         return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
 
-    def update(self, snap: FeatureSnapshot) -> tuple[Detections, Tracks]:
-        """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters."""
+    def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None) -> tuple[Detections, Tracks]:
+        """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
+
+        ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
+        box to the object around its features (:func:`grow_boxes`); without it the boxes are
+        the features' extent."""
         p = self.params
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
@@ -436,13 +599,15 @@ class FeatureClusterer:
         # indices into the snapshot
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
         self.last_labels = labels
-        return self._outputs(snap, labels, cids)
+        return self._outputs(snap, labels, cids, image)
 
-    def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
+    def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray, image=None):
         p = self.params
         n = len(cids)
         t, fi = snap.t_s, snap.frame_index
         if n == 0:
+            if p.relink_s > 0:
+                self._relink(snap, cids, np.zeros((0, 4)))
             return (Detections.empty(t, fi, self.source, self.camera_id),
                     Tracks.empty(t, fi, self.source, self.camera_id))
         m = labels >= 0
@@ -462,6 +627,22 @@ class FeatureClusterer:
             x0, x1 = np.clip(x0, 0, w), np.clip(x1, 0, w)
             y0, y1 = np.clip(y0, 0, h), np.clip(y1, 0, h)
         boxes = np.stack([x0, y0, x1 - x0, y1 - y0], axis=1)
+        self.last_contrast = None
+        if image is not None and p.grow_box > 0:
+            cx0 = np.full(n, np.inf)
+            cy0 = np.full(n, np.inf)
+            cx1 = np.full(n, -np.inf)
+            cy1 = np.full(n, -np.inf)
+            np.minimum.at(cx0, k, xy[:, 0])
+            np.minimum.at(cy0, k, xy[:, 1])
+            np.maximum.at(cx1, k, xy[:, 0])
+            np.maximum.at(cy1, k, xy[:, 1])
+            img = np.asarray(image)
+            if img.dtype != np.uint8:
+                img = to_grey_u8(img)
+            boxes, self.last_contrast = grow_boxes(
+                img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
+                peak_frac=p.grow_peak_frac, return_contrast=True)
         count = np.bincount(k, minlength=n)
         iv = snap.image_velocity[m]
         ok = np.isfinite(iv).all(axis=1)
@@ -469,12 +650,26 @@ class FeatureClusterer:
         np.add.at(vsum, k[ok], iv[ok])
         vn = np.bincount(k[ok], minlength=n)
         vel = np.where(vn[:, None] > 0, vsum / np.maximum(vn, 1)[:, None], 0.0)
-        births = np.array([self.graph.birth_s.get(int(c), t) for c in cids])
+        if self.last_contrast is not None and p.min_contrast > 0:
+            # a cluster that does not stand out from its surroundings is not reported
+            ok = ~(self.last_contrast < p.min_contrast)
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+        if p.relink_s > 0:
+            ids = self._relink(snap, cids, boxes)
+            for r in ids:
+                self._birth.setdefault(int(r), t)
+            births = np.array([self._birth[int(r)] for r in ids])
+            if len(self._birth) > 4 * max(len(ids) + len(self._lost), 16):
+                keep = set(int(r) for r in ids) | set(self._lost)
+                self._birth = {k: v for k, v in self._birth.items() if k in keep}
+        else:
+            ids = cids
+            births = np.array([self.graph.birth_s.get(int(c), t) for c in cids])
         ages = t - births
         states = np.where(ages >= p.confirm_s - 1e-9, int(TrackState.CONFIRMED), int(TrackState.TENTATIVE))
         scores = 1.0 - np.exp(-count / 5.0)
         dets = Detections(t, fi, boxes, scores, self.source, self.camera_id)
-        tracks = Tracks(t, fi, cids, boxes, vel, states, ages, self.source, self.camera_id)
+        tracks = Tracks(t, fi, ids, boxes, vel, states, ages, self.source, self.camera_id)
         return dets, tracks
 
 
@@ -544,7 +739,7 @@ class StableFeatureTracker:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
         self.last_snapshot = snap
         self.clusterer.camera_id = frame.camera_id
-        dets, tracks = self.clusterer.update(snap)
+        dets, tracks = self.clusterer.update(snap, frame.image)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)

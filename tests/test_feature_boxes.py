@@ -1,0 +1,108 @@
+"""Beyond the paper: boxes grown to the object, the contrast check, identity through a short loss."""
+
+import numpy as np
+import pytest
+
+from seawatch.detect.features import FeatureSnapshot
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, grow_boxes
+
+
+def scene(seed=0, hull=(100, 60, 40, 12), sky_row=None):
+    """Grey sea (noise 2 levels) with a dark hull of exact extent ``hull`` (x, y, w, h)."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 240))
+    if sky_row is not None:
+        img[:sky_row] += 60.0  # bright sky above the horizon
+    x, y, w, h = hull
+    img[y:y + h, x:x + w] = 40.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_grow_box_reaches_the_hull_from_features_inside_it():
+    img = scene()
+    core = np.array([[112.0, 64.0, 10.0, 4.0]])  # features in the middle of the hull
+    box = core + [-2, -2, 4, 4]
+    out, con = grow_boxes(img, box, core, grow=1.5, return_contrast=True)
+    assert out[0].tolist() == pytest.approx([100, 60, 40, 12])
+    assert con[0] > 20  # 80 levels against a noise of 2
+
+
+def test_grow_box_keeps_the_box_on_texture_and_leaves_out_the_horizon():
+    # plain sea texture: nothing stands out, the box stays and the contrast is low
+    rng = np.random.default_rng(1)
+    sea = np.clip(120 + rng.normal(0, 8, (160, 240)), 0, 255).astype(np.uint8)
+    box = np.array([[100.0, 60.0, 20.0, 10.0]])
+    out, con = grow_boxes(sea, box, box + [2, 2, -4, -4], return_contrast=True)
+    assert out[0].tolist() == box[0].tolist() and con[0] < 4
+    # a hull just under a horizon that crosses the whole window: the sky is not the object
+    img = scene(hull=(100, 52, 40, 12), sky_row=50)
+    core = np.array([[112.0, 56.0, 10.0, 4.0]])
+    out = grow_boxes(img, core + [-2, -2, 4, 4], core, grow=1.5)
+    assert out[0].tolist() == pytest.approx([100, 52, 40, 12])
+
+
+def test_peak_fraction_leaves_out_a_halo():
+    img = scene().astype(np.float64)
+    x, y, w, h = 100, 60, 40, 12
+    img[y - 3:y + h + 3, x - 3:x + w + 3] = 100.0  # a faint halo 3 px wide around the hull
+    img[y:y + h, x:x + w] = 20.0
+    img = img.astype(np.uint8)
+    core = np.array([[112.0, 64.0, 10.0, 4.0]])
+    with_halo = grow_boxes(img, core, core, grow=3.0, peak_frac=0.0)
+    without = grow_boxes(img, core, core, grow=3.0, peak_frac=0.5)
+    assert with_halo[0].tolist() == pytest.approx([97, 57, 46, 18])
+    assert without[0].tolist() == pytest.approx([100, 60, 40, 12])
+
+
+def snap(xy, vel, t, fi, ids=None, h=None):
+    n = len(xy)
+    hist = np.repeat(np.asarray(vel, float)[:, None, :], 4, axis=1)
+    return FeatureSnapshot(
+        t_s=t, frame_index=fi, ids=np.arange(n) + 10 if ids is None else np.asarray(ids), slots=np.arange(n),
+        xy=np.asarray(xy, float), size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),
+        matched=np.ones(n, bool), velocity=hist[:, -1], history=hist, image_velocity=hist[:, -1],
+        homography=np.eye(3) if h is None else h, dt_s=0.1, n_keypoints=n, n_matched=n, shape=(160, 240),
+    )
+
+
+def test_contrast_check_drops_a_cluster_on_plain_texture():
+    rng = np.random.default_rng(2)
+    img = np.clip(120 + rng.normal(0, 8, (160, 240)), 0, 255).astype(np.uint8)
+    img[60:72, 100:140] = 40  # one hull; a second cluster lies on the texture at x ~ 30
+    xy = [[110, 64], [125, 66], [30, 120], [45, 125]]
+    vel = [[20, 0]] * 4
+    keep_all = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0))
+    _, tr = keep_all.update(snap(xy, vel, 0.0, 0), img)
+    assert len(tr) == 2
+    check = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, min_contrast=4.0))
+    _, tr = check.update(snap(xy, vel, 0.0, 0), img)
+    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([100, 60, 40, 12])
+
+
+def test_identity_survives_a_short_loss_and_follows_the_camera():
+    vel = [[20, 0]] * 2
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=1.0, relink_px=10.0))
+    _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    first = int(tr.ids[0])
+    # the cluster's features are lost for three frames while the camera pans 5 px per frame
+    pan = np.array([[1.0, 0, 5.0], [0, 1.0, 0], [0, 0, 1.0]])
+    for k in range(1, 4):
+        _, tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[], h=pan))
+        assert len(tr) == 0
+    # new features (new identities) where the boat now is: 15 px right of where it was
+    _, tr = c.update(snap([[117, 60], [127, 62]], vel, 0.4, 4, ids=[3, 4], h=pan))
+    assert tr.ids.tolist() == [first]
+    # without relinking the same sequence gives a new identity
+    c2 = FeatureClusterer(ClusterParams(confirm_s=0.0))
+    c2.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    for k in range(1, 4):
+        c2.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[], h=pan))
+    _, tr2 = c2.update(snap([[117, 60], [127, 62]], vel, 0.4, 4, ids=[3, 4], h=pan))
+    assert tr2.ids.tolist() != [first]
+    # too long a loss: a new identity
+    c3 = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=0.2, relink_px=10.0))
+    c3.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    for k in range(1, 4):
+        c3.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[], h=pan))
+    _, tr3 = c3.update(snap([[117, 60], [127, 62]], vel, 0.4, 4, ids=[3, 4], h=pan))
+    assert tr3.ids.tolist() != [first]
