@@ -455,6 +455,11 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--no-sim", action="store_true", help="do not use simulator frames")
     p.add_argument("--no-wake-stage", action="store_true", help="do not train the last wake stage")
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--lowres-prob", type=float, default=0.5,
+                   help="share of augmented positives rendered as far boats of about 20-50 px (0.5)")
+    p.add_argument("--select-only", action="store_true",
+                   help="do not train: choose the detector settings of the model at --out again on the "
+                        "validation part of --data (its JSON is updated)")
 
 
 def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
@@ -478,6 +483,7 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         max_false_alarm=args.max_false_alarm, max_weak_count=args.max_weak_count,
         features_per_stage=args.features_per_stage, max_positives=args.max_positives,
         wake_stage=not args.no_wake_stage, time_budget_s=args.time_budget_s, seed=args.seed,
+        lowres_prob=args.lowres_prob,
     )
     out = args.out
     command = "seawatch " + " ".join(sys.argv[1:])
@@ -501,6 +507,13 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
     if out is None:
         from seawatch.detect.cascade import default_model_path
         out = default_model_path()
+    if args.select_only:
+        from seawatch.train.recipe import reselect_model
+
+        if not Path(out).is_file():
+            raise CLIError(f"--select-only: no model at {out}")
+        reselect_model(out, data, use_sim=not args.no_sim, seed=args.seed, command=command)
+        return EXIT_OK
     train_default_model(data, out, s, use_sim=not args.no_sim, command=command)
     return EXIT_OK
 

@@ -22,7 +22,8 @@ from seawatch.train.samples import (
 )
 from seawatch.train.trainer import TrainSettings, train_cascade
 
-__all__ = ["load_training_data", "match_counts", "evaluate_images", "tune_min_neighbors", "train_default_model"]
+__all__ = ["load_training_data", "match_counts", "evaluate_images", "tune_min_neighbors", "train_default_model",
+           "select_detector_settings", "choose_detector_settings", "reselect_model"]
 
 
 def load_training_data(data_dir: str | Path, use_sim: bool = True, sim_frames: int = 20, seed: int = 0
@@ -206,7 +207,7 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
 
 def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: TrainSettings | None = None,
                         use_sim: bool = True, command: str = "", log=print,
-                        scale_factors: tuple[float, ...] = (1.1, 1.2)) -> dict:
+                        scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3)) -> dict:
     """Train, tune and describe the default boat cascade (see the module docstring)."""
     s = settings or TrainSettings()
     t0 = time.perf_counter()
@@ -224,36 +225,62 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
     calib = calibrate_boxes(out_xml, [im for im in parts["train"] if im.source == "mardct"], log=log)
     _update_json(out_xml, calib)
     record.update(calib)
-    val = [im for im in parts["val"] if im.source in ("mardct", "sim")]
-    table, best, best_f1, best_sf = {}, None, -1.0, None
-    for sf in scale_factors:
-        log(f"  scale factor {sf}:")
-        mn, tab = tune_min_neighbors(out_xml, val, log=log, scale_factor=sf)
-        table[f"{sf:g}"] = tab
-        if tab[mn][0.3]["F1"] > best_f1:
-            best, best_f1, best_sf = mn, tab[mn][0.3]["F1"], sf
-    log(f"  chosen scale factor {best_sf}, min_neighbors {best} (validation part: MarDCT and simulator frames)")
-    _update_json(out_xml, {"detector": {"min_neighbors": int(best), "scale_factor": float(best_sf)}})
-    from seawatch.detect.cascade import CascadeDetector
-
-    det = CascadeDetector(out_xml)
-    held = {}
-    for src in ("mardct",):
-        ims = [im for im in parts["heldout"] if im.source == src]
-        if ims:
-            held[src] = evaluate_images(det, ims)
-            log(f"  held-out {src} ({len(ims)} images): F1@0.3 {held[src][0.3]['F1']:.3f} "
-                f"F1@0.5 {held[src][0.5]['F1']:.3f} FAR@0.3 {held[src][0.3]['FAR']:.3f}")
-    record["detector"] = {"min_neighbors": int(best), "scale_factor": float(best_sf)}
-    record["validation"] = {sf: {str(k): {str(i): v for i, v in r.items()} for k, r in tab.items()}
-                            for sf, tab in table.items()}
-    record["heldout"] = {k: {str(i): v for i, v in r.items()} for k, r in held.items()}
+    record.update(choose_detector_settings(out_xml, parts, log=log, scale_factors=scale_factors))
     record["split"] = {k: sorted(im.name for im in v) for k, v in parts.items()}
     record["command"] = command
     record["total_time_s"] = round(time.perf_counter() - t0, 1)
     Path(out_xml).with_suffix(".json").write_text(json.dumps(record, indent=1, default=float) + "\n",
                                                   encoding="utf-8")
     return record
+
+
+def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[LabelledImage]], log=print,
+                             scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3)) -> dict:
+    """Choose the detector settings on the validation part, store them beside the model and
+    report the held-out part with them (the model's JSON gains ``detector``, ``validation``
+    and ``heldout``).
+
+    Validation: the MarDCT and simulator frames, each scanned with the smallest boat at 0.5,
+    1, 2 and 3 times the automatic value, and the CORAL images with the smallest boat at
+    20 px (:func:`select_detector_settings`).  Never the held-out part, never MarDCT video2.
+    """
+    val = [im for im in parts["val"] if im.source in ("mardct", "sim", "coral")]
+    best, table = select_detector_settings(model_xml, val, scale_factors=scale_factors,
+                                           fixed_min_size_px={"coral": 20.0}, log=log)
+    settings = {k: best[k] for k in ("min_neighbors", "scale_factor", "neighbors_size_exp")}
+    _update_json(model_xml, {"detector": settings})
+    from seawatch.detect.cascade import CascadeDetector
+
+    held = {}
+    for src, kw in (("mardct", {}), ("coral", {"min_size_px": 20.0})):
+        ims = [im for im in parts["heldout"] if im.source == src]
+        if ims:
+            det = CascadeDetector(model_xml, **kw)
+            held[src] = evaluate_images(det, ims, min_box_w_px=kw.get("min_size_px", 0.0))
+            log(f"  held-out {src} ({len(ims)} images): F1@0.3 {held[src][0.3]['F1']:.3f} "
+                f"F1@0.5 {held[src][0.5]['F1']:.3f} FAR@0.3 {held[src][0.3]['FAR']:.3f}")
+    return {
+        "detector": settings,
+        "selection": {"criterion": "mean over IoU 0.3 and 0.5 of the F1 averaged over boat-size bins "
+                                   "(box width / smallest boat: " + ", ".join(f"{e:g}" for e in SIZE_BINS) + ")",
+                      "validation_images": {src: sum(im.source == src for im in val) for src in ("mardct", "sim", "coral")},
+                      "best": best},
+        "validation": table,
+        "heldout": {k: {str(i): v for i, v in r.items()} for k, r in held.items()},
+    }
+
+
+def reselect_model(model_xml: str | Path, data_dir: str | Path, use_sim: bool = True, seed: int = 0,
+                   command: str = "", log=print) -> dict:
+    """Choose a trained model's detector settings again (:func:`choose_detector_settings`) on the
+    split :func:`load_training_data` makes, without retraining; updates the JSON beside it."""
+    t0 = time.perf_counter()
+    parts = load_training_data(data_dir, use_sim=use_sim, seed=seed)
+    upd = choose_detector_settings(model_xml, parts, log=log)
+    upd["selection"]["command"] = command
+    upd["selection"]["time_s"] = round(time.perf_counter() - t0, 1)
+    _update_json(model_xml, upd)
+    return upd
 
 
 # ---------------------------------------------------------------- detector settings over boat sizes
@@ -267,10 +294,10 @@ def _auto_min_boat_px(width_px: int) -> float:
 def select_detector_settings(
     model_path: str | Path,
     images: list[LabelledImage],
-    scale_factors: tuple[float, ...] = (1.1, 1.2),
+    scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3),
     min_size_mults: tuple[float, ...] = (0.5, 1.0, 2.0, 3.0),
     fixed_min_size_px: dict | None = None,
-    candidates: tuple[int, ...] = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128),
+    candidates: tuple[int, ...] = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256),
     size_exps: tuple[float, ...] = (0.0, 0.5, 1.0, 1.5, 2.0),
     size_bins: tuple[float, ...] = SIZE_BINS,
     log=print,
@@ -315,17 +342,21 @@ def select_detector_settings(
                 mb = det.min_boat_px(w)
                 small = im.boxes[:, 2] < 0.8 * mb if len(im.boxes) else np.zeros(0, bool)
                 wins, cnt = det.raw_windows(g)
+                det.reset()
+                if det.params.horizon_filter:
+                    det._update_horizon(graw, 0.0, im.ir)
                 runs.append((im, ms, mb, g, graw, wins, cnt, im.boxes[~small],
-                             np.concatenate([im.ignore.reshape(-1, 4), im.boxes[small]])))
+                             np.concatenate([im.ignore.reshape(-1, 4), im.boxes[small]]), det.horizon))
         log(f"  scale factor {sf:g}: {len(runs)} scans of {len(images)} images in {time.perf_counter() - t0:.0f} s")
         for ex in size_exps:
             det.params.neighbors_size_exp = float(ex)
             for mn in candidates:
                 c = np.zeros((2, nb, 3), np.int64)  # IoU, bin, (TP, FP, FN)
-                for im, ms, mb, g, graw, wins, cnt, gt, ign in runs:
+                for im, ms, mb, g, graw, wins, cnt, gt, ign, hz in runs:
                     det.params.min_size_px = ms
-                    det.reset()
-                    boxes, _ = det.postprocess(g, graw, wins, cnt, 0.0, im.ir, min_neighbors=int(mn))
+                    det.horizon = hz  # the image's horizon line, found once
+                    boxes, _ = det.postprocess(g, graw, wins, cnt, 0.0, im.ir, min_neighbors=int(mn),
+                                               update_horizon=False)
                     bin_gt = np.clip(np.searchsorted(edges, gt[:, 2] / mb, side="right") - 1, 0, nb - 1)
                     bin_det = np.clip(np.searchsorted(edges, boxes[:, 2] / mb, side="right") - 1, 0, nb - 1)
                     for k, iou_min in enumerate((0.3, 0.5)):
