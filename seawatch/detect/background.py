@@ -60,7 +60,7 @@ _F = np.float32
 
 @nb.njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test, lam_e, n_e_old,
-               dt, gate_max_s, a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
+               dt, gate_max_s, absorb, a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
     n_ch, n_pix = y.shape
     k2 = k_sigma * k_sigma
     ab = alpha + _F(0.5)
@@ -104,6 +104,23 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test,
             w = ab / (beta + (e2 + pp) * (half / r))
             if fgc:
                 AGE[i] += dt
+                if AGE[i] > gate_max_s and absorb:
+                    # foreground for longer than the gate: a change of the background (a ghost
+                    # left by the first frame, a vessel that stopped).  Re-initialise the pixel at
+                    # the observation (a change point), keeping a, q, r: their statistics get the
+                    # current values' expectations, so the jump does not inflate q.
+                    X[i] = yi
+                    P[i] = r
+                    AGE[i] = _F(0.0)
+                    SXX[i] = lam * SXX[i] + (yi * yi + r)
+                    SDA[i] = lam * SDA[i]
+                    SQ[i] = lam * SQ[i] + Q[i]
+                    SR[i] = lam * SR[i] + r
+                    A[i] = min(max(one + SDA[i] / SXX[i], a_min), a_max)
+                    Q[i] = min(max(SQ[i] * inv_n, q_min), q_max)
+                    R[i] = min(max(SR[i] * inv_n, r_min), r_max)
+                    fg[i] = 255
+                    continue
                 if hard_gate and AGE[i] <= gate_max_s:
                     w = _F(0.0)
             else:
@@ -156,6 +173,7 @@ def robust_kalman_step(
     n_test_frames: float = 1.0,
     dt_s: float = 0.04,
     gate_max_s: float = math.inf,
+    absorb: bool = False,
     a_range: tuple[float, float] = (0.95, 1.05),
     q_range: tuple[float, float] = (1e-3, 400.0),
     r_range: tuple[float, float] = (0.25, 400.0),
@@ -181,6 +199,9 @@ def robust_kalman_step(
         of uninterrupted foreground, after which the pixel is updated as usual).
     dt_s, gate_max_s : float
         Time since the last step, and the time limit of hard gating.
+    absorb : bool
+        A pixel foreground for longer than ``gate_max_s`` is re-initialised at its observation
+        (a change of the background), instead of being updated with a small gain.
     empirical_test : bool
         Test against ``max(P_pred + r, mean innovation energy)``, the energy forgotten with
         ``forget_test`` per step and ``n_test_frames`` its forgotten frame count before this step.
@@ -201,7 +222,7 @@ def robust_kalman_step(
     fg = np.empty(h * w, np.uint8)
     _rk_kernel(yy, state, fg, _F(n_frames), _F(k_sigma), _F(forget), _F(alpha), _F(beta),
                bool(hard_gate), bool(empirical_test), _F(forget_test), _F(n_test_frames),
-               _F(dt_s), _F(min(gate_max_s, 1e30)), _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
+               _F(dt_s), _F(min(gate_max_s, 1e30)), bool(absorb), _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
                _F(r_range[0]), _F(r_range[1]))
     return fg.reshape(h, w)
 
@@ -242,6 +263,21 @@ class RobustKalmanBackground:
     test_window_s : float
         Memory of that mean square (longer than ``window_s``, so that one passing vessel adds
         little to it while a pixel that glints again and again builds it up).
+    absorb : bool
+        Not in the paper: a pixel foreground without a break for longer than the gate limit is
+        re-initialised at its observation (a change point: the background changed), keeping its
+        learned ``a, q, r``.  Without it such a pixel creeps towards its new value with the small
+        gain of a converged filter (tens of seconds for a ghost).
+    ghost_frac : float
+        Not in the paper: while the model is young the gate limit is ``ghost_frac`` times the
+        time since the first frame (when shorter than ``gate_max_s``), so a ghost of something
+        in the first frame is absorbed in about the time it took to appear (the counterpart of
+        MOG2's learning rate ``1 / (2 n)`` over the first frames).  0 disables.
+    r0_local_px : int
+        Not in the paper: when > 1, the first frame's ``r`` (and ``P``) is the local spatial
+        variance of the image over this many pixels square (at least ``r0``): a textured sea
+        starts with about its temporal variance instead of learning it from ``r0`` (the robust
+        weights make that slow), so the first seconds are not full of false alarms.
     """
 
     def __init__(self, *, k_sigma: float = 3.0, window_s: float = 2.0, alpha: float = 1.0,
@@ -249,7 +285,8 @@ class RobustKalmanBackground:
                  warmup_s: float = 0.4, prior_frames: float = 3.0, empirical_test: bool = False,
                  test_window_s: float = 10.0, r_min: float = 1.0, gate_max_s: float = math.inf,
                  a_range=(0.95, 1.05),
-                 q_range=(1e-3, 400.0), r_max: float = 900.0) -> None:
+                 q_range=(1e-3, 400.0), r_max: float = 900.0, absorb: bool = False,
+                 ghost_frac: float = 0.0, r0_local_px: int = 0) -> None:
         if window_s <= 0:
             raise ValueError(f"RobustKalmanBackground: window_s must be positive, got {window_s}")
         if k_sigma <= 0:
@@ -266,6 +303,9 @@ class RobustKalmanBackground:
         self.empirical_test = bool(empirical_test)
         self.test_window_s = float(test_window_s)
         self.gate_max_s = float(gate_max_s)
+        self.absorb = bool(absorb)
+        self.ghost_frac = float(ghost_frac)
+        self.r0_local_px = int(r0_local_px)
         self.a_range = tuple(map(float, a_range))
         self.q_range = tuple(map(float, q_range))
         self.r_range = (float(r_min), float(r_max))
@@ -287,15 +327,22 @@ class RobustKalmanBackground:
         c = 1 if y.ndim == 2 else y.shape[2]
         st = np.zeros((_NSTATE, c, h * w), np.float32)
         st[0] = y.reshape(h * w, c).T
-        st[1] = self.r0
+        r_init = np.full((c, h * w), self.r0, np.float32)
+        if self.r0_local_px > 1:
+            ksz = (self.r0_local_px, self.r0_local_px)
+            yf = y.astype(np.float32)
+            var = cv2.blur(yf * yf, ksz) - cv2.blur(yf, ksz) ** 2
+            var = np.clip(var.reshape(h * w, c).T, self.r0, self.r_range[1])
+            r_init = var.astype(np.float32)
+        st[1] = r_init
         st[2] = 1.0
         st[3] = self.q0
-        st[4] = self.r0
+        st[4] = r_init
         n0 = self.prior_frames
-        st[5] = n0 * (st[0] ** 2 + self.r0)
+        st[5] = n0 * (st[0] ** 2 + r_init)
         st[7] = n0 * self.q0
-        st[8] = n0 * self.r0
-        st[9] = n0 * (self.r0 + self.q0)
+        st[8] = n0 * r_init
+        st[9] = n0 * (r_init + self.q0)
         self.n_frames = n0
         self.n_test_frames = n0
         self.state = st
@@ -332,10 +379,13 @@ class RobustKalmanBackground:
         lam_e = math.exp(-dt / self.test_window_s)
         n_e_old = self.n_test_frames
         self.n_test_frames = lam_e * n_e_old + 1.0
+        gate_lim = self.gate_max_s
+        if self.ghost_frac > 0:
+            gate_lim = min(gate_lim, self.ghost_frac * (float(t_s) - self._t0))
         mask = robust_kalman_step(
             y, self.state, self.n_frames, k_sigma=self.k_sigma, forget=lam, alpha=self.alpha, beta=self.beta,
             hard_gate=self.hard_gate, empirical_test=self.empirical_test, forget_test=lam_e,
-            n_test_frames=n_e_old, dt_s=dt, gate_max_s=self.gate_max_s, a_range=self.a_range,
+            n_test_frames=n_e_old, dt_s=dt, gate_max_s=gate_lim, absorb=self.absorb, a_range=self.a_range,
             q_range=self.q_range, r_range=self.r_range,
         )
         if float(t_s) - self._t0 < self.warmup_s:
@@ -383,12 +433,14 @@ class RobustKalmanDetector:
                  min_area_px: float = 30.0, max_area_frac: float = 0.25, open_px: int = 0,
                  close_px: int = 5, empirical_test: bool = False, test_window_s: float = 20.0,
                  persist_px: int = 0, r_min: float = 4.0, gate_max_s: float = 10.0,
+                 absorb: bool = False, ghost_frac: float = 0.0, r0_local_px: int = 0,
                  camera=None) -> None:
         self.model = RobustKalmanBackground(k_sigma=k_sigma, window_s=window_s, alpha=alpha,
                                             beta=beta, hard_gate=hard_gate, q0=q0, r0=r0,
                                             warmup_s=warmup_s, empirical_test=empirical_test,
                                             test_window_s=test_window_s, r_min=r_min,
-                                            gate_max_s=gate_max_s)
+                                            gate_max_s=gate_max_s, absorb=absorb,
+                                            ghost_frac=ghost_frac, r0_local_px=r0_local_px)
         if not 0.0 < work_scale <= 1.0:
             raise ValueError(f"RobustKalmanDetector: work_scale must be in (0, 1], got {work_scale}")
         self.work_scale = float(work_scale)
