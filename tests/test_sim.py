@@ -382,3 +382,29 @@ def test_swaying_camera_panorama_any_order_and_memory_budget():
     for x, y, z in zip(fa, fb, fc):
         assert np.array_equal(x, y) and np.array_equal(x, z)
     assert c.renderer._cache_bytes == 0 and a.renderer._cache_bytes > 0
+
+
+@pytest.mark.parametrize("name, i", [("pan", 0), ("pan", 26), ("ir", 0)])
+def test_band_covered_rows_skip_the_coarse_layer_exactly(name, i):
+    """Rows the sharp horizon/coast band covers entirely are not resampled from the coarse
+    panorama (a speed-up for moving cameras); the background is the same to the last bit, and
+    the coarse layer of any row range equals that of the whole image."""
+    s = make_scenario(name, seed=0, duration_s=14.0, fps=1.0)
+    cam = s.camera_at(i)
+    fast = s.renderer
+    ref = make_scenario(name, seed=0, duration_s=14.0, fps=1.0).renderer
+    ref._lo_skip_band = False
+    a, b = fast._build_view(cam), ref._build_view(cam)
+    assert np.array_equal(a.bg, b.bg) and np.array_equal(a.water_row, b.water_row)
+    # the coarse layer in pieces (as the skipping does) equals the coarse layer of the whole image
+    H, W, C = fast.H, fast.W, fast.C
+    rng = np.random.default_rng(1)
+    mlo = rng.uniform(0, 1, (H // 2, W // 2, 2)).astype(np.float32)
+    mlo[..., 0] = mlo[..., 0] * 3 + np.arange(W // 2)[None, :] * 0.7 + 20
+    mlo[..., 1] = mlo[..., 1] * 3 + np.arange(H // 2)[:, None] * 0.7 + 15
+    whole = np.zeros((H, W, C), np.uint8)
+    fast._lo_rows(whole, mlo, 0, H)
+    for y0, y1 in ((0, 201), (201, 280), (280, H), (3, 4), (57, 58), (H - 1, H)):
+        part = np.zeros((H, W, C), np.uint8)
+        fast._lo_rows(part, mlo, y0, y1)
+        assert np.array_equal(part[y0:y1], whole[y0:y1])

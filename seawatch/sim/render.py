@@ -253,6 +253,7 @@ class Renderer:
         span = max(pr[1] - pr[0], tr[1] - tr[0])
         self.use_panorama = bool(0.0 < span <= _PANO_MAX_SPAN_DEG) if panorama is None else bool(panorama)
         self._levels: dict[int, _PanoLevel] = {}
+        self._lo_skip_band = True  # skip the coarse layer where the sharp band covers whole rows
         self._views: OrderedDict[tuple, _View] = OrderedDict()
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
@@ -340,7 +341,7 @@ class Renderer:
         lox, loy = pano.lo_xy(az_rel, el)
         hix, hiy = pano.hi_xy(az_rel, el)
         # sea-surface texture coordinates, compressed beyond r0 so they stay bounded
-        e, n, r = cam.pixel_to_sea_enu(U, V)
+        r = _sea_range_m(np.radians(el), self.height_m, cam.r_eff_m)  # as cam.pixel_to_sea_enu(U, V)
         f_px = float(cam.intrinsics.fy)
         tx, ty, amp, gl = self._sea_params(az, r, f_px)
 
@@ -350,12 +351,6 @@ class Renderer:
         view = _View()
         view.f_px = f_px
         view.sea_cache = None
-        # coarse sky / sea / clouds: smooth, so resampled at half resolution and upscaled
-        hh, hw = -(-H // 2), -(-W // 2)
-        mlo = np.ascontiguousarray(up(s // 2, (hh, hw), (lox, loy)))
-        bg = cv2.remap(pano.lo, mlo, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        bg = cv2.resize(bg, (2 * hw, 2 * hh), interpolation=cv2.INTER_LINEAR)[:H, :W]
-        bg = np.ascontiguousarray(bg).reshape(H, W, self.C)
         # the sharp band around the horizon and the coast, at full resolution; rows above it hold
         # neither water nor coast, so the full-resolution maps start at the band (or the water)
         hmax = hiy.max(axis=1)
@@ -371,11 +366,31 @@ class Renderer:
         m0 = min(r0_, b0)
         # below the band every pixel is water: the panorama coordinates are needed only down to b1
         hi_map = up(s, (b1, W), (hix, hiy), m0) if m0 < b1 else np.zeros((0, W, 2), np.float32)
+        band_maps = None
+        c0 = c1 = 0  # rows that the band covers entirely (they need no coarse layer)
         if b1 > b0:
-            dst = np.ascontiguousarray(bg[b0:b1])
-            band = cv2.remap(pano.hi, np.ascontiguousarray(hi_map[b0 - m0:b1 - m0]), None, cv2.INTER_LINEAR,
-                             dst=dst[..., 0] if self.C == 1 else dst, borderMode=cv2.BORDER_TRANSPARENT)
-            bg[b0:b1] = band.reshape(dst.shape)
+            band_maps = np.ascontiguousarray(hi_map[b0 - m0:b1 - m0])
+            ix, iy = band_maps[..., 0], band_maps[..., 1]
+            hh_hi, hw_hi = pano.hi.shape[:2]  # rows whose every pixel has its 4 taps inside the band:
+            full = ((ix >= 0) & (ix <= hw_hi - 2) & (iy >= 0) & (iy <= hh_hi - 2)).all(axis=1)
+            if full.any():
+                c0 = int(np.argmax(full))
+                c1 = c0 + (int(np.argmin(full[c0:])) if not full[c0:].all() else len(full) - c0)
+                c0, c1 = b0 + c0, b0 + c1
+        # coarse sky / sea / clouds: smooth, so resampled at half resolution and upscaled (rows the
+        # band covers entirely are skipped)
+        bg = np.empty((H, W, self.C), np.uint8)
+        mlo = up(s // 2, (-(-H // 2), -(-W // 2)), (lox, loy))
+        for y0, y1 in ((0, c0), (c1, H)) if c1 > c0 and self._lo_skip_band else ((0, H),):
+            if y1 > y0:
+                self._lo_rows(bg, mlo, y0, y1)
+        if band_maps is not None:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
+            dst = bg[b0:b1]
+            dst2 = dst.reshape(b1 - b0, W) if self.C == 1 else dst
+            res = cv2.remap(pano.hi, band_maps, None, cv2.INTER_LINEAR, dst=dst2,
+                            borderMode=cv2.BORDER_TRANSPARENT)
+            if not np.shares_memory(res, dst):  # (OpenCV wrote into a new array)
+                dst[...] = res.reshape(dst.shape)
         view.bg = bg
         view.hi_map = hi_map
         view.hi_r0 = m0
@@ -388,6 +403,17 @@ class Renderer:
         wr = first_water_rows(hi_map, self._water_top_y) + m0  # b1 where none in the band rows
         view.water_row = np.where(wr >= b1, b1 if r0_ < H else H, wr).astype(np.float64)
         return view
+
+    def _lo_rows(self, bg: np.ndarray, mlo: np.ndarray, y0: int, y1: int) -> None:
+        """Rows ``y0 .. y1`` of the coarse layer into ``bg``: ``pano.lo`` resampled through the
+        half-resolution maps ``mlo`` and upscaled twice (the same pixels as doing it for the whole
+        image: one half-resolution row of margin on each side feeds the interpolation)."""
+        hh = mlo.shape[0]
+        k0, k1 = max(0, y0 // 2 - 1), min(hh, (y1 + 1) // 2 + 1)
+        lo = cv2.remap(self.pano.lo, np.ascontiguousarray(mlo[k0:k1]), None, cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_REPLICATE)
+        big = cv2.resize(lo, (2 * mlo.shape[1], 2 * (k1 - k0)), interpolation=cv2.INTER_LINEAR)
+        bg[y0:y1] = big[y0 - 2 * k0:y1 - 2 * k0, :self.W].reshape(y1 - y0, self.W, self.C)
 
     # ------------------------------------------------------- swaying cameras: panoramas
     def _level(self, fy: float) -> _PanoLevel:
@@ -654,9 +680,13 @@ class Renderer:
             u, v, depth = cam.enu_to_pixel(ce, cn, Z)
         order = []
         W, H = self.W, self.H
+        # per-vessel extents of the projected vertices (and of their mirror images), in one pass each
+        starts = bounds[:-1]
+        dmin = np.minimum.reduceat(depth[:nv], starts)
+        umin, umax = np.minimum.reduceat(u[:nv], starts), np.maximum.reduceat(u[:nv], starts)
+        vmin, vmax = np.minimum.reduceat(v[:nv], starts), np.maximum.reduceat(v[:nv], starts)
         for k, p in enumerate(pts):
-            sl = slice(bounds[k], bounds[k + 1])
-            if depth[sl].min() <= 0.5:
+            if dmin[k] <= 0.5:
                 continue  # partly behind the camera: not renderable as a pinhole silhouette
             e, n = p[3][0], p[3][1]
             cx, cy = self._to_cam(e, n)
@@ -665,8 +695,7 @@ class Renderer:
         # ---- pass 1: wakes and reflections on the water (they never cover a vessel's pixels)
         near = []
         for dist, k, _, _ in order:
-            sl = slice(bounds[k], bounds[k + 1])
-            if not (u[sl].max() < -0.5 * W or u[sl].min() > 1.5 * W or v[sl].min() > H):
+            if not (umax[k] < -0.5 * W or umin[k] > 1.5 * W or vmin[k] > H):
                 near.append(k)  # else far outside the view: its wake and reflection cannot show
         wakes = self._wake_quads(near, t_s, cam) if o.wakes and near else {}
         for k in near:
@@ -679,9 +708,9 @@ class Renderer:
         drawn = []
         for dist, k, cx, cy in order:
             sl = slice(bounds[k], bounds[k + 1])
-            uu, vv = u[sl], v[sl]
-            if uu.max() < -1 or vv.max() < -1 or uu.min() > W or vv.min() > H:
+            if umax[k] < -1 or vmax[k] < -1 or umin[k] > W or vmin[k] > H:
                 continue
+            uu, vv = u[sl], v[sl]
             e, n, course, speed, fwd, port, roll, pitch, heave = pts[k][3]
             # the camera in the vessel's frame (for back-face culling); far vessels sit lower (curvature)
             cam_up = self.height_m + dist * dist / (2 * cam.r_eff_m) - heave
@@ -875,14 +904,16 @@ class Renderer:
         o = self.options
         if o.blur_sigma_px > 0:
             img = cv2.GaussianBlur(img, (0, 0), o.blur_sigma_px).reshape(img.shape)
+        img = np.ascontiguousarray(img)
+        flat = img.reshape(self.H, self.W * self.C)  # in place, on a view OpenCV takes as it is
         if self._fpn is not None:
-            img = cv2.add(img, self._fpn[0]).reshape(img.shape)
-            img = cv2.subtract(img, self._fpn[1]).reshape(img.shape)
+            cv2.add(flat, self._fpn[0].reshape(flat.shape), dst=flat)
+            cv2.subtract(flat, self._fpn[1].reshape(flat.shape), dst=flat)
         if self._noise_pos is not None:
             rng = np.random.default_rng([self.seed, 5, frame_seed])
             dy = int(rng.integers(0, self._pad))  # whole rows: a contiguous slice
-            img = cv2.add(img, self._noise_pos[dy:dy + self.H]).reshape(img.shape)
-            img = cv2.subtract(img, self._noise_neg[dy:dy + self.H]).reshape(img.shape)
+            cv2.add(flat, self._noise_pos[dy:dy + self.H].reshape(flat.shape), dst=flat)
+            cv2.subtract(flat, self._noise_neg[dy:dy + self.H].reshape(flat.shape), dst=flat)
         if o.ir:
             img = img[..., 0]
             if o.ir_polarity == "black_hot":
