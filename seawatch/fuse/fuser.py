@@ -192,6 +192,7 @@ class Fuser:
         self._calib_last_t = -np.inf
         self._track_pos: dict[int, deque] = {}
         self._born: dict[int, float] = {}  # track id -> AIS-clock time first seen
+        self._trail: tuple[float, np.ndarray] | None = None  # (time, rows t, e, n, owner born, owner id)
         self._vel_cache: dict = {}
         self._feed = _AISFeed()
         self._radar: np.ndarray | None = None
@@ -791,14 +792,13 @@ class Fuser:
         _, e, n = h[-1]
         r = math.hypot(e, n)
         tol = 10.0 + 2.0 * r * r / max(cam.pose.height_m * cam.intrinsics.fy, 1e-9)
-        for other, oh in self._track_pos.items():
-            if other == tid or other not in self._first_conf or self._born.get(other, np.inf) >= born or not oh:
-                continue
-            a = np.asarray(oh)
-            a = a[(a[:, 0] >= t_ais - s.wake_s) & (a[:, 0] <= born)]
-            if len(a) and float(np.min(np.hypot(a[:, 1] - e, a[:, 2] - n))) <= tol:
-                return True
-        return False
+        if self._trail is None or self._trail[0] != t_ais:  # every confirmed track's recent trail, once a frame
+            rows = [(tt, ee, nn, self._born.get(other, np.inf), other) for other, oh in self._track_pos.items()
+                    if other in self._first_conf for tt, ee, nn in oh if tt >= t_ais - s.wake_s]
+            self._trail = (t_ais, np.array(rows, float).reshape(-1, 5))
+        a = self._trail[1]
+        m = (a[:, 4] != tid) & (a[:, 3] < born) & (a[:, 0] <= born)
+        return bool(np.any(m & (np.hypot(a[:, 1] - e, a[:, 2] - n) <= tol)))
 
     def _inherits_no_ais(self, tid: int, t: float, e: float, n: float) -> bool:
         """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked."""
