@@ -8,10 +8,17 @@ operations one rendered frame costs.  ``fps_cpu`` uses this process' CPU time in
 which stays meaningful when other jobs share the machine; its mean (``ms_per_frame_cpu_mean``)
 includes the frames that fill the caches (the animated-sea frames of fixed cameras, the tiled
 panoramas of swaying cameras), which the median leaves out.
+
+Everything runs on one thread (``cv2.setNumThreads(1)``, ``numba.set_num_threads(1)``; the Numba
+kernels are serial anyway).  For each 704x576 scenario the CPU time of the render stages is also
+reported (median over frames, ``stage_ms_cpu``): ``background`` (sky, coast and sea base of a new
+camera view, or the panorama remap of a swaying camera), ``sea`` (animated waves and glints),
+``vessels`` (hulls, wakes, reflections, labels) and ``sensor`` (blur, noise, JPEG).
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -37,12 +44,41 @@ def _peer_ms(width: int, height: int, repeats: int) -> float:
     return float(np.median(times) * 1e3)
 
 
+_STAGES = {"_build_view": "background", "_pano_frame": "background", "_sea_image": "sea",
+           "_draw_vessels": "vessels", "_finish": "sensor"}
+
+
+@contextlib.contextmanager
+def _stage_clock(renderer, acc: dict):
+    """Time the renderer's stages (process CPU time) into ``acc[stage]`` while active."""
+    saved = {}
+    for meth, stage in _STAGES.items():
+        f = getattr(renderer, meth)
+
+        def timed(*a, _f=f, _stage=stage, **k):
+            c0 = time.process_time()
+            try:
+                return _f(*a, **k)
+            finally:
+                acc[_stage] = acc.get(_stage, 0.0) + time.process_time() - c0
+
+        saved[meth] = f
+        setattr(renderer, meth, timed)
+    try:
+        yield
+    finally:
+        for meth in saved:
+            delattr(renderer, meth)  # back to the class' methods
+
+
 def run(ctx) -> None:
     import cv2
+    import numba
 
     from seawatch.sim import make_scenario
 
     cv2.setNumThreads(1)
+    numba.set_num_threads(1)
     cases = [("harbour", 704, 576), ("crossing", 704, 576), ("ir", 704, 576), ("pan", 704, 576),
              ("open_sea", 704, 576), ("harbour", 1920, 1080)]
     for name, w, h in cases:
@@ -71,6 +107,18 @@ def run(ctx) -> None:
                    target=TARGET_FPS_704 if (w, h) == (704, 576) else None, **extra)
         ctx.record(ds, "render", "ms_per_frame_cpu", med_cpu, "ms", **extra)
         # the mean includes the frames that fill the caches (animated sea, swaying-camera panoramas)
-        ctx.record(ds, "render", "ms_per_frame_cpu_mean", float(np.mean(cpu) * 1e3), "ms", **extra)
+        ctx.record(ds, "render", "ms_per_frame_cpu_mean", float(np.mean(cpu) * 1e3), "ms", threads=1, **extra)
         ctx.record(ds, "blur5x5+noise (peer)", "ms_per_frame", peer, "ms")
         ctx.record(ds, "render / peer", "time_ratio", med / peer, "x")
+        if (w, h) == (704, 576):  # where the time goes: a second pass with the stages clocked
+            per = {st: [] for st in set(_STAGES.values())}
+            frames = range(0, scn.n_frames, 1 if ctx.quick else 3)
+            for i in frames:
+                acc: dict = {}
+                with _stage_clock(scn.renderer, acc):
+                    scn.renderer.render(scn.time_s(i), scn.camera_at(i), frame_seed=i)
+                for st in per:
+                    per[st].append(acc.get(st, 0.0))
+            for st in sorted(per):
+                ctx.record(ds, f"render: {st}", "stage_ms_cpu", float(np.median(per[st]) * 1e3), "ms",
+                           frames=len(frames))
