@@ -106,3 +106,19 @@ def test_identity_survives_a_short_loss_and_follows_the_camera():
         c3.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[], h=pan))
     _, tr3 = c3.update(snap([[117, 60], [127, 62]], vel, 0.4, 4, ids=[3, 4], h=pan))
     assert tr3.ids.tolist() != [first]
+
+
+def test_two_clusters_on_one_boat_are_reported_once_with_the_older_identity():
+    img = scene(hull=(100, 90, 30, 8))
+    img[60:90, 113:117] = 40  # a mast 30 px tall on the hull
+    # features on the hull and at the top of the mast, moving differently enough (and too far
+    # apart) to be linked: two clusters
+    xy = [[106, 93], [124, 94], [114, 62], [116, 68]]
+    vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
+    apart = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, radius_px=20.0))
+    _, tr = apart.update(snap(xy, vel, 0.0, 0), img)
+    assert len(tr) == 2
+    merged = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, radius_px=20.0, merge_overlap=0.5))
+    _, tr = merged.update(snap(xy, vel, 0.0, 0), img)
+    assert tr.ids.tolist() == [1] and tr.boxes[0].tolist() == pytest.approx([100, 60, 30, 38])
+    assert tr.velocities[0].tolist() == pytest.approx([10, 10])

@@ -380,7 +380,8 @@ def grow_boxes(
     more than the larger of ``k_sigma`` times the border's robust noise and ``min_contrast``
     grey levels (in any colour channel) and than ``peak_frac`` times the contrast inside the
     cluster's core (the features' extent; this leaves out a thermal halo), and the foreground's
-    connected components that touch the core and not the window's edge make the new box.  The box is kept as it was
+    connected components that touch the core and not the window's left or right edge make the
+    new box.  The box is kept as it was
     when nothing touches the core or the foreground fills more than ``max_fill`` of the window
     (a textured background, not one object), and when the core itself does not stand out from
     the background.  Not in the paper.
@@ -439,9 +440,10 @@ def grow_boxes(
             continue
         sub = lab[core]
         hit = np.unique(sub[sub > 0])
-        # a component reaching the window's edge is background structure (coast, horizon,
-        # sea texture), not the object
-        edge = np.unique(np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]])
+        # a component reaching the window's left or right edge is background structure (coast,
+        # horizon, sea texture), not the object (a mast or a reflection may reach the top or
+        # the bottom)
+        edge = np.unique(np.r_[lab[:, 0], lab[:, -1]])
         hit = np.setdiff1d(hit, edge)
         if len(hit) == 0:
             continue
@@ -450,6 +452,34 @@ def grow_boxes(
         ny0, ny1 = ys.min() + y0, ys.max() + y0 + 1
         out[n] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
     return (out, contrast) if return_contrast else out
+
+
+def _merge_overlapping(cids, boxes, count, vel, min_overlap):
+    """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
+    object (two clusters grown to the same object): the oldest identity stays, the box is the
+    union, the velocity the feature-weighted mean."""
+    order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
+    cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
+    alive = np.ones(len(cids), bool)
+    for i in range(len(cids)):
+        if not alive[i]:
+            continue
+        for j in range(i + 1, len(cids)):
+            if not alive[j]:
+                continue
+            a, b = boxes[i], boxes[j]
+            iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+            ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+            small = min(a[2] * a[3], b[2] * b[3])
+            if iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small:
+                x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+                x1, y1 = max(a[0] + a[2], b[0] + b[2]), max(a[1] + a[3], b[1] + b[3])
+                boxes[i] = (x0, y0, x1 - x0, y1 - y0)
+                tot = max(count[i] + count[j], 1)
+                vel[i] = (vel[i] * count[i] + vel[j] * count[j]) / tot
+                count[i] += count[j]
+                alive[j] = False
+    return cids[alive], boxes[alive], count[alive], vel[alive]
 
 
 @dataclass(frozen=True)
@@ -474,6 +504,7 @@ class ClusterParams:
     relink_s: float = 0.0
     relink_px: float = 20.0
     min_contrast: float = 0.0
+    merge_overlap: float = 0.0
 
 
 class FeatureClusterer:
@@ -654,6 +685,8 @@ class FeatureClusterer:
             # a cluster that does not stand out from its surroundings is not reported
             ok = ~(self.last_contrast < p.min_contrast)
             cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+        if p.merge_overlap > 0 and len(cids) > 1:
+            cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap)
         if p.relink_s > 0:
             ids = self._relink(snap, cids, boxes)
             for r in ids:
