@@ -751,13 +751,14 @@ class Renderer:
         if self.options.ir:
             cols = m.all_ir[:, None]
         else:
-            lam = np.clip(m.all_normals @ sun_local, 0, 1)
+            lam = np.minimum(np.maximum(m.all_normals @ sun_local, 0), 1)
             cols = m.all_bgr * (0.55 + 0.5 * lam[:, None])
-        cols = np.clip(np.round(cols), 1, 255)  # never 0: the canvas' zeros mark "no vessel"
+        cols = np.minimum(np.maximum(np.round(cols), 1), 255)  # never 0: the canvas' zeros mark "no vessel"
         n_parts = len(m.parts)
         fsel = np.nonzero(vis)[0]
         if n_parts > 1:  # hull first, then the other parts far to near
-            d = np.linalg.norm(m.part_centres - cam_local[None, :], axis=1)
+            dd = m.part_centres - cam_local[None, :]
+            d = np.sqrt(np.add.reduce(dd * dd, axis=1))  # (what np.linalg.norm computes)
             d[0] = np.inf
             rank = np.empty(n_parts, np.int64)
             rank[np.argsort(-d, kind="stable")] = np.arange(n_parts)

@@ -120,6 +120,11 @@ class Trajectory:
             return (float(es[k]) + v / w * (math.cos(a0) - math.cos(a1)),
                     float(ns[k]) + v / w * (math.sin(a1) - math.sin(a0)), (c0 + wd * dt) % 360.0, v)
         t = np.asarray(t_s, dtype=np.float64)
+        if len(ts) == 1 and abs(legs[0, 2]) < 1e-9:  # one straight leg (most vessels): no lookups
+            v = np.full(t.shape, legs[0, 1])
+            c0 = np.radians(np.full(t.shape, cs[0]))
+            dt = t - ts[0]
+            return es[0] + v * dt * np.sin(c0), ns[0] + v * dt * np.cos(c0), (cs[0] + 0.0 * dt) % 360.0, v
         k = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 1)
         v, w = legs[k, 1], legs[k, 2]
         dt = t - ts[k]
