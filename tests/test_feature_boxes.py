@@ -71,7 +71,7 @@ def test_contrast_check_drops_a_cluster_on_plain_texture():
     img[60:72, 100:140] = 40  # one hull; a second cluster lies on the texture at x ~ 30
     xy = [[110, 64], [125, 66], [30, 120], [45, 125]]
     vel = [[20, 0]] * 4
-    keep_all = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0))
+    keep_all = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, min_contrast=0.0))
     _, tr = keep_all.update(snap(xy, vel, 0.0, 0), img)
     assert len(tr) == 2
     check = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, min_contrast=4.0))
@@ -93,7 +93,7 @@ def test_identity_survives_a_short_loss_and_follows_the_camera():
     _, tr = c.update(snap([[117, 60], [127, 62]], vel, 0.4, 4, ids=[3, 4], h=pan))
     assert tr.ids.tolist() == [first]
     # without relinking the same sequence gives a new identity
-    c2 = FeatureClusterer(ClusterParams(confirm_s=0.0))
+    c2 = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=0.0))
     c2.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
     for k in range(1, 4):
         c2.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[], h=pan))
@@ -115,7 +115,7 @@ def test_two_clusters_on_one_boat_are_reported_once_with_the_older_identity():
     # apart) to be linked: two clusters
     xy = [[106, 93], [124, 94], [114, 62], [116, 68]]
     vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
-    apart = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, radius_px=20.0))
+    apart = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, radius_px=20.0, merge_overlap=0.0))
     _, tr = apart.update(snap(xy, vel, 0.0, 0), img)
     assert len(tr) == 2
     merged = FeatureClusterer(ClusterParams(grow_box=1.0, confirm_s=0.0, radius_px=20.0, merge_overlap=0.5))

@@ -443,13 +443,20 @@ def grow_boxes(
         # a component reaching the window's left or right edge is background structure (coast,
         # horizon, sea texture), not the object (a mast or a reflection may reach the top or
         # the bottom)
-        edge = np.unique(np.r_[lab[:, 0], lab[:, -1]])
+        # the image's own border is not the window's edge: an object may be cut by it
+        edge = np.unique(np.r_[lab[:, 0] if x0 > 0 else [], lab[:, -1] if x1 < ww else []]).astype(np.int64)
         hit = np.setdiff1d(hit, edge)
         if len(hit) == 0:
             continue
         ys, xs = np.nonzero(np.isin(lab, hit))
         nx0, nx1 = xs.min() + x0, xs.max() + x0 + 1
         ny0, ny1 = ys.min() + y0, ys.max() + y0 + 1
+        # the object must cover most of the core (not a speck of noise at its corner)
+        cw1, ch1 = max(cw, 1.0), max(ch, 1.0)
+        iw = min(nx1, cx + cw1) - max(nx0, cx)
+        ih = min(ny1, cy + ch1) - max(ny0, cy)
+        if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
+            continue
         out[n] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
     return (out, contrast) if return_contrast else out
 
@@ -499,12 +506,12 @@ class ClusterParams:
     label_memory_s: float = 2.0
     confirm_s: float = 0.4
     box_pad: float = 1.0
-    grow_box: float = 0.0
-    grow_peak_frac: float = 0.3
-    relink_s: float = 0.0
+    grow_box: float = 1.0
+    grow_peak_frac: float = 0.5
+    relink_s: float = 2.0
     relink_px: float = 20.0
-    min_contrast: float = 0.0
-    merge_overlap: float = 0.0
+    min_contrast: float = 4.0
+    merge_overlap: float = 0.5
 
 
 class FeatureClusterer:
