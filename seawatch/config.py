@@ -76,6 +76,11 @@ class DetectorSettings:
     rk_test_window_s: float = 20.0  # memory of that energy
     rk_persist_px: int = 0  # foreground must persist from the last frame within this (0: off)
     rk_r_min: float = 4.0  # floor of the learned observation variance (grey levels^2)
+    rk_absorb: bool = False  # foreground longer than the gate: re-initialise the pixel (change point)
+    rk_ghost_frac: float = 0.0  # young model: gate limit = this x time since the first frame (0: off)
+    rk_r0_local_px: int = 0  # first frame's r = local variance over this many px (0: r0 everywhere)
+    rk_k_low: float = 0.0  # hysteresis: grow seeds (> k) over pixels > k_low (0: off)
+    rk_neighbour_px: int = 0  # a seed must beat every background within this many px (0: off)
 
 
 @dataclass(frozen=True)

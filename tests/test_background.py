@@ -191,3 +191,137 @@ def test_from_config():
     cfg = load_config(overrides=["detector.rk_k_sigma=2.5", "detector.rk_empirical_test=true"])
     det = RobustKalmanDetector.from_config(cfg)
     assert det.model.k_sigma == 2.5 and det.model.empirical_test is True
+    cfg = load_config(overrides=["detector.rk_k_low=4.5", "detector.rk_neighbour_px=2",
+                                 "detector.rk_absorb=true", "detector.rk_r0_local_px=7"])
+    m = RobustKalmanDetector.from_config(cfg).model
+    assert m.k_low == 4.5 and m.neighbour_px == 2 and m.absorb is True and m.r0_local_px == 7
+    cfg = load_config(overrides=["detector.rk_k_low=0"])
+    assert RobustKalmanDetector.from_config(cfg).model.k_low is None
+
+
+def _texture(rng, shape, shift_px=0):
+    """A smooth random texture (sea-like), optionally rolled sideways by ``shift_px``."""
+    import cv2
+
+    t = cv2.GaussianBlur(rng.normal(0, 1, shape), (0, 0), 1.0)
+    t = 100 + 30 * t / t.std()
+    return np.roll(t, shift_px, axis=1)
+
+
+def test_first_frame_ghost_is_absorbed_as_a_change_point():
+    # a bright box is in the first frame and leaves at once: its place is a "ghost"
+    y0 = np.full((40, 40), 80.0, np.float32)
+    masks, r_after = {}, {}
+    for absorb in (False, True):
+        rng = np.random.default_rng(7)
+        m = RobustKalmanBackground(k_sigma=6.0, hard_gate=True, gate_max_s=1.0, absorb=absorb,
+                                   warmup_s=0.0, window_s=5.0, alpha=4.0, beta=4.0)
+        first = y0.copy()
+        first[10:20, 10:20] = 200
+        m.apply(first, 0.0)
+        fr = []
+        for i in range(1, 40):
+            fr.append((m.apply(y0 + rng.normal(0, 2, y0.shape).astype(np.float32), i / 10)[10:20, 10:20] > 0).mean())
+        masks[absorb] = fr
+        r_after[absorb] = float(np.median(m.param("r")[10:20, 10:20]))
+    assert masks[True][0] == 1.0 and masks[False][0] == 1.0  # at first both see the ghost
+    # with the change point: gone right after the 1 s gate, and the pixel keeps its noise level
+    assert max(masks[True][11:]) == 0.0 and max(masks[True][:9]) == 1.0
+    assert r_after[True] < 10.0
+    # without: the gain of the converged filter is tiny, so the ghost lasts longer and is only
+    # "explained" by blowing r up, which leaves those pixels blind
+    assert min(masks[False][:15]) == 1.0
+    assert r_after[False] > 100.0
+
+
+def test_ghost_frac_shortens_the_gate_of_a_young_model():
+    y0 = np.full((30, 30), 80.0, np.float32)
+    first = y0.copy()
+    first[5:15, 5:15] = 220
+    gone = {}
+    for frac in (0.0, 0.5):
+        rng = np.random.default_rng(8)
+        m = RobustKalmanBackground(k_sigma=6.0, hard_gate=True, gate_max_s=10.0, absorb=True,
+                                   ghost_frac=frac, warmup_s=0.0)
+        m.apply(first, 0.0)
+        t_gone = None
+        for i in range(1, 150):
+            fg = (m.apply(y0 + rng.normal(0, 2, y0.shape).astype(np.float32), i / 10)[5:15, 5:15] > 0).mean()
+            if fg == 0 and t_gone is None:
+                t_gone = i / 10
+        gone[frac] = t_gone
+    assert gone[0.5] is not None and gone[0.5] <= 0.6
+    assert gone[0.0] is not None and gone[0.0] > 9.9  # the full 10 s gate
+
+
+def test_local_variance_start_quietens_a_textured_sea():
+    fa = {}
+    for px in (0, 5):
+        rng = np.random.default_rng(9)
+        m = RobustKalmanBackground(k_sigma=5.0, warmup_s=0.0, window_s=20.0, r0_local_px=px,
+                                   alpha=4.0, beta=4.0)
+        n = 0.0
+        for i in range(20):  # a new texture every frame: the temporal variance equals the spatial one
+            n += (m.apply(_texture(rng, (60, 60)).astype(np.float32), i / 10) > 0).mean()
+        fa[px] = n / 20
+        if px:
+            assert np.median(m.param("r")) > 300  # started near the texture's variance (30^2)
+    assert fa[5] < 0.2 * fa[0]
+    assert fa[5] < 0.01
+
+
+def test_neighbour_test_ignores_moving_texture_but_not_a_boat():
+    rng = np.random.default_rng(10)
+    tex = _texture(rng, (60, 80))
+    res = {}
+    for nbr in (0, 1):
+        m = RobustKalmanBackground(k_sigma=4.0, warmup_s=0.0, window_s=5.0, neighbour_px=nbr,
+                                   r0=1.0, r_min=1.0, alpha=4.0, beta=4.0)
+        fa, hit = [], []
+        for i in range(40):
+            img = np.roll(tex, (i // 2) % 2, axis=1).astype(np.float32)  # waves jitter by a pixel
+            img = img + rng.normal(0, 0.5, img.shape).astype(np.float32)
+            if i >= 30:
+                img[20:30, 30:45] = 250.0  # a bright boat
+            mask = m.apply(img, i / 10)
+            if 10 <= i < 30:
+                fa.append((mask > 0).mean())
+            if i >= 30:
+                hit.append((mask[22:28, 32:43] > 0).mean())
+        res[nbr] = (np.mean(fa), np.mean(hit))
+    assert res[0][0] > 0.02  # the plain test flags the moved texture
+    assert res[1][0] < 0.1 * res[0][0]  # the neighbour test does not
+    assert res[1][1] > 0.95  # and still finds the boat's inside
+
+
+def test_hysteresis_grows_seeds_over_weak_pixels_only_when_connected():
+    rng = np.random.default_rng(11)
+    y0 = np.full((50, 50), 100.0, np.float32)
+    out = {}
+    for k_low in (None, 3.0):
+        m = RobustKalmanBackground(k_sigma=8.0, k_low=k_low, warmup_s=0.0, r0=4.0, r_min=4.0,
+                                   window_s=5.0)
+        for i in range(30):
+            m.apply(y0 + rng.normal(0, 2, y0.shape).astype(np.float32), i / 10)
+        img = y0.copy()
+        img[10:20, 10:30] += 12.0  # a weak hull (about 6 sigma) ...
+        img[12:16, 18:22] += 60.0  # ... with a strong superstructure
+        img[35:40, 35:40] += 12.0  # a weak patch without a strong pixel
+        out[k_low] = m.apply(img, 3.0) > 0
+    plain, hyst = out[None], out[3.0]
+    assert plain[12:16, 18:22].all() and plain[10:20, 10:30].mean() < 0.2
+    assert hyst[10:20, 10:30].mean() > 0.95  # the whole hull
+    assert not hyst[35:40, 35:40].any() and not hyst[:, 40:].any()
+
+
+def test_mog2_and_robust_kalman_share_the_blob_extraction():
+    from seawatch.detect.mog2 import foreground_boxes
+
+    rng = np.random.default_rng(12)
+    m = (rng.random((120, 160)) > 0.93).astype(np.uint8) * 255
+    m[30:60, 40:90] = 255
+    for o, c in ((0, 0), (3, 0), (0, 7), (3, 15)):
+        b1, a1 = find_blobs(m, min_area_px=5, max_area_px=4000, open_px=o, close_px=c)
+        b2, f2 = foreground_boxes(m, min_area_px=5, max_area_px=4000, open_px=o, close_px=c)
+        np.testing.assert_array_equal(b1, b2)
+        np.testing.assert_allclose(a1 / np.maximum(b1[:, 2] * b1[:, 3], 1), f2)

@@ -59,10 +59,15 @@ _F = np.float32
 
 
 @nb.njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
-def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test, lam_e, n_e_old,
-               dt, gate_max_s, absorb, a_min, a_max, q_min, q_max, r_min, r_max):  # pragma: no cover - compiled
+def _rk_kernel(y, st, fg, lo, xp_out, iv_out, n_new, k_sigma, k_low, lam, alpha, beta, hard_gate,
+               emp_test, lam_e, n_e_old, dt, gate_max_s, absorb, a_min, a_max, q_min, q_max, r_min,
+               r_max):  # pragma: no cover - compiled
+    # fg, lo: (n_pix,) uint8, zero on entry; set to 255 where any channel exceeds k (k_low).
+    # xp_out, iv_out: (n_ch, n_pix) predicted background and 1 / (P_pred + r), or (0, 0) to skip
     n_ch, n_pix = y.shape
     k2 = k_sigma * k_sigma
+    kl2 = k_low * k_low
+    want_pred = xp_out.shape[0] == n_ch
     ab = alpha + _F(0.5)
     one = _F(1.0)
     two = _F(2.0)
@@ -99,6 +104,11 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test,
                 if se > var:
                     var = se
                 SE[i] = lam_e * SE[i] + e2
+            if want_pred:
+                xp_out[c, i] = xp
+                iv_out[c, i] = one / var
+            if e2 > kl2 * var:
+                lo[i] = 255
             fgc = e2 > k2 * var
             # Ting et al. (2007) observation weight: posterior mean of the Gamma-distributed weight
             w = ab / (beta + (e2 + pp) * (half / r))
@@ -151,11 +161,81 @@ def _rk_kernel(y, st, fg, n_new, k_sigma, lam, alpha, beta, hard_gate, emp_test,
             SDA[i] = sda
             SQ[i] = sq
             SR[i] = sr
-            f = 255 if fgc else 0
-            if c == 0:
-                fg[i] = f
-            elif fgc:
-                fg[i] = f
+            if fgc:
+                fg[i] = 255
+
+
+@nb.njit(cache=True, fastmath=True, nogil=True)
+def _seeds_kernel(y, xp, iv, cand, width, rad, k2):  # pragma: no cover - compiled
+    """Candidates (``cand`` > 0) that stay beyond ``k`` against every predicted background within
+    ``rad`` pixels (max over channels, min over the neighbours), as a 0/255 array."""
+    n_ch, n_pix = y.shape
+    height = n_pix // width
+    out = np.zeros(n_pix, np.uint8)
+    for i in range(n_pix):
+        if cand[i] == 0:
+            continue
+        r0 = i // width
+        c0 = i - r0 * width
+        ok = True
+        for dr in range(-rad, rad + 1):
+            rr = r0 + dr
+            if rr < 0 or rr >= height:
+                continue
+            for dc in range(-rad, rad + 1):
+                cc = c0 + dc
+                if cc < 0 or cc >= width or (dr == 0 and dc == 0):
+                    continue
+                j = rr * width + cc
+                zmax = _F(0.0)
+                for c in range(n_ch):
+                    d = y[c, i] - xp[c, j]
+                    z = d * d * iv[c, j]
+                    if z > zmax:
+                        zmax = z
+                if zmax <= k2:  # explained by a neighbour's background: sea texture moving
+                    ok = False
+                    break
+            if not ok:
+                break
+        if ok:
+            out[i] = 255
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _grow_kernel(seeds, low, width):  # pragma: no cover - compiled
+    """The 8-connected components of ``low`` that contain a seed (hysteresis), as 0/255."""
+    n_pix = low.shape[0]
+    height = n_pix // width
+    out = np.zeros(n_pix, np.uint8)
+    stack = np.empty(n_pix, np.int64)
+    for s in range(n_pix):
+        if seeds[s] == 0 or out[s] != 0:
+            continue
+        out[s] = 255
+        top = 0
+        stack[top] = s
+        top += 1
+        while top > 0:
+            top -= 1
+            i = stack[top]
+            r0 = i // width
+            c0 = i - r0 * width
+            for dr in range(-1, 2):
+                rr = r0 + dr
+                if rr < 0 or rr >= height:
+                    continue
+                for dc in range(-1, 2):
+                    cc = c0 + dc
+                    if cc < 0 or cc >= width:
+                        continue
+                    j = rr * width + cc
+                    if low[j] != 0 and out[j] == 0:
+                        out[j] = 255
+                        stack[top] = j
+                        top += 1
+    return out
 
 
 def robust_kalman_step(
@@ -174,6 +254,8 @@ def robust_kalman_step(
     dt_s: float = 0.04,
     gate_max_s: float = math.inf,
     absorb: bool = False,
+    k_low: float | None = None,
+    neighbour_px: int = 0,
     a_range: tuple[float, float] = (0.95, 1.05),
     q_range: tuple[float, float] = (1e-3, 400.0),
     r_range: tuple[float, float] = (0.25, 400.0),
@@ -205,12 +287,20 @@ def robust_kalman_step(
     empirical_test : bool
         Test against ``max(P_pred + r, mean innovation energy)``, the energy forgotten with
         ``forget_test`` per step and ``n_test_frames`` its forgotten frame count before this step.
+    k_low : float, optional
+        Hysteresis: the mask is the 8-connected regions beyond ``k_low`` (in any channel) that
+        contain a pixel beyond ``k_sigma`` (a seed).  None: the plain test at ``k_sigma``.
+    neighbour_px : int
+        A seed must also be beyond ``k_sigma`` against the predicted background of every pixel
+        within this many pixels (so sea texture that moved by a pixel or two seeds nothing);
+        0: no neighbour test.
     a_range, q_range, r_range : (float, float)
         Bounds of the learned parameters (intensity units; keep ``a`` near 1).
 
     Returns
     -------
     (H, W) uint8 foreground mask, 0 or 255 (a pixel is foreground when any channel is).
+    Hard gating and absorption always use the plain test at ``k_sigma``.
     """
     h, w = y.shape[:2]
     c = 1 if y.ndim == 2 else y.shape[2]
@@ -219,11 +309,23 @@ def robust_kalman_step(
                          f"fit an image of shape {y.shape}")
     yy = np.asarray(y, dtype=np.float32).reshape(h * w, c).T
     yy = np.ascontiguousarray(yy)
-    fg = np.empty(h * w, np.uint8)
-    _rk_kernel(yy, state, fg, _F(n_frames), _F(k_sigma), _F(forget), _F(alpha), _F(beta),
-               bool(hard_gate), bool(empirical_test), _F(forget_test), _F(n_test_frames),
-               _F(dt_s), _F(min(gate_max_s, 1e30)), bool(absorb), _F(a_range[0]), _F(a_range[1]), _F(q_range[0]), _F(q_range[1]),
-               _F(r_range[0]), _F(r_range[1]))
+    fg = np.zeros(h * w, np.uint8)
+    lo = np.zeros(h * w, np.uint8)
+    nbr = int(neighbour_px)
+    if nbr > 0:
+        xp = np.empty((c, h * w), np.float32)
+        iv = np.empty((c, h * w), np.float32)
+    else:
+        xp = iv = np.empty((0, 0), np.float32)
+    kl = k_sigma if k_low is None else k_low
+    _rk_kernel(yy, state, fg, lo, xp, iv, _F(n_frames), _F(k_sigma), _F(kl), _F(forget), _F(alpha),
+               _F(beta), bool(hard_gate), bool(empirical_test), _F(forget_test), _F(n_test_frames),
+               _F(dt_s), _F(min(gate_max_s, 1e30)), bool(absorb), _F(a_range[0]), _F(a_range[1]),
+               _F(q_range[0]), _F(q_range[1]), _F(r_range[0]), _F(r_range[1]))
+    if nbr > 0:
+        fg = _seeds_kernel(yy, xp, iv, fg, w, nbr, _F(k_sigma * k_sigma))
+    if k_low is not None:
+        fg = _grow_kernel(fg, lo, w)
     return fg.reshape(h, w)
 
 
@@ -273,6 +375,14 @@ class RobustKalmanBackground:
         time since the first frame (when shorter than ``gate_max_s``), so a ghost of something
         in the first frame is absorbed in about the time it took to appear (the counterpart of
         MOG2's learning rate ``1 / (2 n)`` over the first frames).  0 disables.
+    k_low : float, optional
+        Not in the paper: hysteresis.  The mask is the 8-connected regions beyond ``k_low`` that
+        contain a seed beyond ``k_sigma``: a vessel is seeded by its strongest pixels and grown
+        over its weaker ones instead of breaking into specks.  None: the plain test.
+    neighbour_px : int
+        Not in the paper: a seed must be beyond ``k_sigma`` against the predicted background of
+        every pixel within this many (working) pixels, so wave texture and glints that moved a
+        pixel or two seed nothing (0: off).  The model itself (gating, EM) is unchanged.
     r0_local_px : int
         Not in the paper: when > 1, the first frame's ``r`` (and ``P``) is the local spatial
         variance of the image over this many pixels square (at least ``r0``): a textured sea
@@ -286,7 +396,8 @@ class RobustKalmanBackground:
                  test_window_s: float = 10.0, r_min: float = 1.0, gate_max_s: float = math.inf,
                  a_range=(0.95, 1.05),
                  q_range=(1e-3, 400.0), r_max: float = 900.0, absorb: bool = False,
-                 ghost_frac: float = 0.0, r0_local_px: int = 0) -> None:
+                 ghost_frac: float = 0.0, r0_local_px: int = 0, k_low: float | None = None,
+                 neighbour_px: int = 0) -> None:
         if window_s <= 0:
             raise ValueError(f"RobustKalmanBackground: window_s must be positive, got {window_s}")
         if k_sigma <= 0:
@@ -306,6 +417,8 @@ class RobustKalmanBackground:
         self.absorb = bool(absorb)
         self.ghost_frac = float(ghost_frac)
         self.r0_local_px = int(r0_local_px)
+        self.k_low = None if k_low is None or k_low <= 0 else float(k_low)
+        self.neighbour_px = int(neighbour_px)
         self.a_range = tuple(map(float, a_range))
         self.q_range = tuple(map(float, q_range))
         self.r_range = (float(r_min), float(r_max))
@@ -385,7 +498,8 @@ class RobustKalmanBackground:
         mask = robust_kalman_step(
             y, self.state, self.n_frames, k_sigma=self.k_sigma, forget=lam, alpha=self.alpha, beta=self.beta,
             hard_gate=self.hard_gate, empirical_test=self.empirical_test, forget_test=lam_e,
-            n_test_frames=n_e_old, dt_s=dt, gate_max_s=gate_lim, absorb=self.absorb, a_range=self.a_range,
+            n_test_frames=n_e_old, dt_s=dt, gate_max_s=gate_lim, absorb=self.absorb, k_low=self.k_low,
+            neighbour_px=self.neighbour_px, a_range=self.a_range,
             q_range=self.q_range, r_range=self.r_range,
         )
         if float(t_s) - self._t0 < self.warmup_s:
@@ -434,13 +548,15 @@ class RobustKalmanDetector:
                  close_px: int = 5, empirical_test: bool = False, test_window_s: float = 20.0,
                  persist_px: int = 0, r_min: float = 4.0, gate_max_s: float = 10.0,
                  absorb: bool = False, ghost_frac: float = 0.0, r0_local_px: int = 0,
+                 k_low: float | None = None, neighbour_px: int = 0,
                  camera=None) -> None:
         self.model = RobustKalmanBackground(k_sigma=k_sigma, window_s=window_s, alpha=alpha,
                                             beta=beta, hard_gate=hard_gate, q0=q0, r0=r0,
                                             warmup_s=warmup_s, empirical_test=empirical_test,
                                             test_window_s=test_window_s, r_min=r_min,
                                             gate_max_s=gate_max_s, absorb=absorb,
-                                            ghost_frac=ghost_frac, r0_local_px=r0_local_px)
+                                            ghost_frac=ghost_frac, r0_local_px=r0_local_px,
+                                            k_low=k_low, neighbour_px=neighbour_px)
         if not 0.0 < work_scale <= 1.0:
             raise ValueError(f"RobustKalmanDetector: work_scale must be in (0, 1], got {work_scale}")
         self.work_scale = float(work_scale)
@@ -466,7 +582,8 @@ class RobustKalmanDetector:
             max_area_frac=d.max_area_frac, open_px=d.rk_open_px, close_px=d.rk_close_px,
             empirical_test=d.rk_empirical_test, test_window_s=d.rk_test_window_s,
             persist_px=d.rk_persist_px, r_min=d.rk_r_min, gate_max_s=d.rk_gate_max_s,
-            camera=camera,
+            absorb=d.rk_absorb, ghost_frac=d.rk_ghost_frac, r0_local_px=d.rk_r0_local_px,
+            k_low=d.rk_k_low or None, neighbour_px=d.rk_neighbour_px, camera=camera,
         )
 
     def reset(self) -> None:
