@@ -309,12 +309,13 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
 
     scn = make_scenario(name, seed=seed, duration_s=duration_s)
     cfg = load_config()
-    reps = scn.ais_reports()
+    stream = scn.ais_stream()
     if ais_lead_s > 0:
         from seawatch.sim.ais import AISConfig, simulate_ais
 
-        reps = simulate_ais(scn.world, scn.origin[0], scn.origin[1], scn.duration_s + ais_lead_s,
-                            scn.ais_config or AISConfig(), scn.ais_seed, t0_s=-ais_lead_s).reports
+        stream = simulate_ais(scn.world, scn.origin[0], scn.origin[1], scn.duration_s + ais_lead_s,
+                              scn.ais_config or AISConfig(), scn.ais_seed, t0_s=-ais_lead_s)
+    reps = stream.reports
     fuser = Fuser(scn.camera, cfg.fusion, ais=reps, camera_id=scn.camera_id)
     spoof = int(getattr(scn.ais_config, "spoof_mmsi", 0) or 0) if getattr(scn, "ais_config", None) else 0
     spoof_from = float(getattr(scn.ais_config, "spoof_from_s", 0.0)) if spoof else float("nan")
@@ -386,7 +387,7 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
     ttf = [flag_t[v] - t_confirm[v] for v in no_ais_ids if v in flag_t and v in t_confirm]
     first_spoofed = float("nan")
     if spoof:
-        tr = scn.ais_truth()
+        tr = stream.truth
         rx = tr["t_rx_s"][tr["spoofed"]]
         first_spoofed = float(rx.min()) if len(rx) else float("nan")
     return {

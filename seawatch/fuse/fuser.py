@@ -659,9 +659,8 @@ class Fuser:
         ids = tracks.ids.tolist()
         taken = {int(k) for k in keys.tolist() if k}
         col = {int(k): j for j, k in enumerate(st.keys.tolist())}
-        # "no AIS" is claimed only when no AIS vessel could be this one: none within gate_deg of the
-        # box's azimuth extent at a range within a factor range_ratio_max (an identified vessel's
-        # wake or a fragment of its box is not a vessel without AIS)
+        # "no AIS" is claimed only when no AIS vessel heard could be this one (see _could_be: a
+        # fragment of a long hull's box, or the upper part of a hull, is not a vessel without AIS)
         plausible = self._could_be(ta, st, tg) if len(ids) else np.zeros((0, len(st)), bool)
         for tid in list(self._track_seen):
             if t - self._track_seen[tid] > 60.0:
@@ -729,7 +728,7 @@ class Fuser:
             # an AIS vessel never heard is excluded only once the feed has been live for the
             # reporting interval of a (class A) vessel moving as this one does, plus the latency
             # (at the lower bound of its speed: a slower vessel reports less often; the cross-range
-            # speed, from the bearing rate, is a lower bound that a drifting box bottom cannot inflate)
+            # speed, from the bearing rate, is a lower bound that a drifting box bottom does not inflate)
             speed, _, cross, cross_se = self.track_speed(tid, t_ais)
             need_s = ais_report_interval_s(max(cross - 2.0 * cross_se, 0.0) if np.isfinite(cross_se) else np.nan, "A")
             live_s = -np.inf if self._ais_since is None else t_ais - self._ais_since
