@@ -370,9 +370,14 @@ class Renderer:
         c0 = c1 = 0  # rows that the band covers entirely (they need no coarse layer)
         if b1 > b0:
             band_maps = np.ascontiguousarray(hi_map[b0 - m0:b1 - m0])
-            ix, iy = band_maps[..., 0], band_maps[..., 1]
-            hh_hi, hw_hi = pano.hi.shape[:2]  # rows whose every pixel has its 4 taps inside the band:
-            full = ((ix >= 0) & (ix <= hw_hi - 2) & (iy >= 0) & (iy <= hh_hi - 2)).all(axis=1)
+            # rows whose every pixel has its 4 taps inside the band: pixel row y interpolates the
+            # grid rows i = (y + 0.5) / s + 0.5 and i + 1 (a convex combination), so it is covered
+            # when every sample of both rows lies inside (with a margin for rounding)
+            hh_hi, hw_hi = pano.hi.shape[:2]
+            inside = ((hix >= 0.05) & (hix <= hw_hi - 2.05) & (hiy >= 0.05) & (hiy <= hh_hi - 2.05)).all(axis=1)
+            pair_ok = inside[:-1] & inside[1:]
+            ys = np.arange(b0, b1)
+            full = pair_ok[np.minimum(((ys + 0.5) / s + 0.5).astype(np.int64), len(pair_ok) - 1)]
             if full.any():
                 c0 = int(np.argmax(full))
                 c1 = c0 + (int(np.argmin(full[c0:])) if not full[c0:].all() else len(full) - c0)
