@@ -121,7 +121,7 @@ class TrackerSettings:
     sf_w_link: float = 1.0  # affinity weight at which a link forms
     sf_radius_px: float = 50.0  # largest distance of a graph edge
     sf_max_keypoints: int = 200  # keypoints described per frame (SIFT cost)
-    sf_min_speed_px_s: float = 2.5  # slower feature velocities count as static
+    sf_min_speed_px_s: float = 1.5  # slower feature velocities count as static
 
 
 @dataclass(frozen=True)

@@ -232,11 +232,11 @@ def test_speed_floor_follows_the_measured_noise():
     xy = [[10, 10], [30, 20], [20, 40]]
     quiet = snapshot(xy, [slow] * 3)
     quiet.noise_px_s = 0.5
-    c = FeatureClusterer(ClusterParams(noise_factor=3.0))
+    c = FeatureClusterer(ClusterParams(noise_factor=3.0, min_speed_px_s=2.5))
     c.update(quiet)
     assert c.min_speed_px_s == pytest.approx(2.5) and (c.last_labels == 1).all()
     noisy = snapshot(xy, [slow] * 3, t=0.04, fi=1)
     noisy.noise_px_s = 4.0  # the static features jitter at 4 px/s: 6 px/s is no longer motion
-    c2 = FeatureClusterer(ClusterParams(noise_factor=3.0))
+    c2 = FeatureClusterer(ClusterParams(noise_factor=3.0, min_speed_px_s=2.5))
     c2.update(noisy)
     assert c2.min_speed_px_s == pytest.approx(12.0) and (c2.last_labels == -1).all()

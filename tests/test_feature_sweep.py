@@ -35,7 +35,7 @@ def boat_sequence(name, n=12, spread=1.0, seed=0):
     for k in range(n):
         t = k / FPS
         v_boat = np.array([50.0, 0.0]) + rng.normal(0, spread, (4, 2))
-        v_bg = rng.normal(0, 1.0, (4, 2))  # static: below the speed floor
+        v_bg = rng.normal(0, 1.0, (4, 2))  # static: below a speed floor of 2.5 px/s
         hist = np.roll(hist, -1, axis=1)
         hist[:, -1] = np.r_[v_boat, v_bg]
         xy = np.r_[boat0 + [50.0 * t, 0], bg]
@@ -58,7 +58,7 @@ def test_default_grid_covers_the_papers_ranges():
 
 def test_run_clustering_finds_the_boat():
     seq = boat_sequence("a")
-    pred = run_clustering(seq.snapshots, ClusterParams(confirm_s=0.0))
+    pred = run_clustering(seq.snapshots, ClusterParams(confirm_s=0.0, min_speed_px_s=2.5))
     ids, boxes = pred[11]
     assert ids.tolist() == [1]
     # the leftmost feature, less the keypoint radius (size 4)
@@ -69,7 +69,7 @@ def test_sweep_scores_settings_and_anova_tells_them_apart():
     seqs = [boat_sequence("a", spread=1.0, seed=1), boat_sequence("b", spread=3.0, seed=2),
             boat_sequence("c", spread=6.0, seed=3)]
     grid = {"dmax": [0.0, 0.31, 1.0], "w_link": [1.0, 50.0]}
-    res = sweep(seqs, grid, ClusterParams(confirm_s=0.0))
+    res = sweep(seqs, grid, ClusterParams(confirm_s=0.0, min_speed_px_s=2.5))
     assert len(res.rows) == (3 + 2) * 3
     _, names, m = res.table("dmax")
     assert names == ["a", "b", "c"]
@@ -107,7 +107,7 @@ def test_welch_anova_against_scipy_on_a_hand_made_table():
 
 
 def test_results_written_and_plotted(tmp_path):
-    res = sweep([boat_sequence("a"), boat_sequence("b", seed=5)], {"alpha": [1.0, 3.0]}, ClusterParams(confirm_s=0.0))
+    res = sweep([boat_sequence("a"), boat_sequence("b", seed=5)], {"alpha": [1.0, 3.0]}, ClusterParams(confirm_s=0.0, min_speed_px_s=2.5))
     welch_anova(res)
     csv, js = res.write(tmp_path)
     assert csv.read_text().splitlines()[0].startswith("param,value,sequence,METE")

@@ -499,7 +499,7 @@ class ClusterParams:
     radius_px: float = 50.0
     p_px: float = 3.0
     frame_interval_s: float = 0.04
-    min_speed_px_s: float = 2.5
+    min_speed_px_s: float = 1.5
     noise_factor: float = 0.0
     w_cap: float = 15.0
     min_features: int = 2
@@ -757,7 +757,7 @@ class StableFeatureTracker:
             alpha=float(getattr(settings, "sf_alpha", 3.0)),
             w_link=float(getattr(settings, "sf_w_link", 1.0)),
             radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
-            min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 2.5)),
+            min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 1.5)),
         )
         return cls(ext, params)
 
