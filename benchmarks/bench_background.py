@@ -6,7 +6,9 @@
   D1 (a fixed shore camera; its images in time order of their file-name timestamps, labels
   1-based).  Ground truth under 50 % visible or under the detectors' minimum blob area is
   "don't care": detections on it are neither true nor false.  The first 2 s are the models'
-  warm-up and are not scored.
+  warm-up and are not scored.  The detectors' defaults were chosen on seed 1 of the scenes
+  (``TUNE_SEED``); the figures are over seeds 2-4 (``SEEDS``), per scene and seed, per scene
+  (the seeds' counts pooled), and pooled over all scenes and seeds.
 * Frames/s of the whole detector (conversion, model, blobs) at 704x576 and 1920x1080 on one
   core (CPU time of this process, OpenCV and Numba single-threaded), median over frames, beside
   MOG2 (``seawatch.detect.mog2``) measured in the same process.
@@ -35,6 +37,9 @@ REF = "paper C, background model"
 MIN_AREA_PX = 30.0
 #: the settings measured (the [detector] rk_* defaults)
 RK = dict()
+#: the seed the detectors' defaults were tuned on (never reported), and the seeds reported
+TUNE_SEED = 1
+SEEDS = (2, 3, 4)
 
 
 class KnnDetector:
@@ -83,10 +88,10 @@ def _score_sequence(frames, fps: float, warmup_s: float = 2.0) -> dict:
     return {k: detection_metrics(gt, pred[k], iou=IOU, pr=False) for k in dets}
 
 
-def _sim_frames(name: str, n_frames: int | None):
+def _sim_frames(name: str, n_frames: int | None, seed: int = SEEDS[0]):
     from seawatch.sim import make_scenario
 
-    scn = make_scenario(name, seed=0)
+    scn = make_scenario(name, seed=seed)
     n = scn.n_frames if n_frames is None else min(n_frames, scn.n_frames)
 
     def gen():
@@ -133,6 +138,18 @@ def coral_frames(root, limit: int | None = None):
         yield Frame(img, t - t0, i, "coral_d1"), g[keep], g[~keep]
 
 
+def _pool(results: list) -> dict:
+    """Sum the TP/FP/FN of several runs per method and recompute F1, precision and recall."""
+    out = {}
+    for k in results[0]:
+        tp = sum(r[k]["TP"] for r in results)
+        fp = sum(r[k]["FP"] for r in results)
+        fn = sum(r[k]["FN"] for r in results)
+        out[k] = {"F1": 2 * tp / max(2 * tp + fp + fn, 1), "precision": tp / max(tp + fp, 1),
+                  "recall": tp / max(tp + fn, 1), "TP": tp, "FP": fp, "FN": fn}
+    return out
+
+
 def _record_f1(ctx, ds, res, **extra):
     for k, m in res.items():
         for metric in ("F1", "precision", "recall"):
@@ -169,21 +186,25 @@ def run(ctx) -> None:
     cv2.setNumThreads(1)
     n_sim = 120 if ctx.quick else None
     scenes = ["harbour"] if ctx.quick else ["harbour", "crossing", "ir"]
-    allres = []
+    seeds = SEEDS[:1] if ctx.quick else SEEDS
+    allres, by_scene = [], {}
     for name in scenes:
-        scn, frames = _sim_frames(name, n_sim)
-        res = _score_sequence(frames, scn.fps)
-        _record_f1(ctx, f"sim_{name}", res)
-        allres.append(res)
-    # the scenes pooled: F1 of the summed counts
-    pooled = {}
+        for seed in seeds:
+            scn, frames = _sim_frames(name, n_sim, seed)
+            res = _score_sequence(frames, scn.fps)
+            _record_f1(ctx, f"sim_{name}_seed{seed}", res, seed=seed)
+            allres.append(res)
+            by_scene.setdefault(name, []).append(res)
+    note = f"defaults tuned on seed {TUNE_SEED}; reported seeds " + ",".join(map(str, seeds))
+    for name, rs in by_scene.items():  # each scene, its seeds pooled
+        _record_f1(ctx, f"sim_{name}", _pool(rs), seeds=",".join(map(str, seeds)), note=note)
+    # all scenes and seeds pooled (F1 of the summed counts), and the mean of the per-run F1
+    _record_f1(ctx, "sim_fixed_pooled", _pool(allres), scenes=",".join(scenes),
+               seeds=",".join(map(str, seeds)), note=note)
     for k in allres[0]:
-        tp = sum(r[k]["TP"] for r in allres)
-        fp = sum(r[k]["FP"] for r in allres)
-        fn = sum(r[k]["FN"] for r in allres)
-        pooled[k] = {"F1": 2 * tp / max(2 * tp + fp + fn, 1), "precision": tp / max(tp + fp, 1),
-                     "recall": tp / max(tp + fn, 1), "TP": tp, "FP": fp, "FN": fn}
-    _record_f1(ctx, "sim_fixed_pooled", pooled, scenes=",".join(scenes))
+        ctx.record("sim_fixed_mean", k, "F1", float(np.mean([r[k]["F1"] for r in allres])), "",
+                   ref=REF, iou=IOU, runs=len(allres), scenes=",".join(scenes),
+                   seeds=",".join(map(str, seeds)), note="mean over scenes x seeds of the F1")
     # speed, one core
     _speed(ctx, 704, 576, 30 if ctx.quick else 100)
     _speed(ctx, 1920, 1080, 20 if ctx.quick else 60)

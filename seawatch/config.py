@@ -64,23 +64,23 @@ class DetectorSettings:
     rk_alpha: float = 4.0  # Gamma prior of Ting's observation weights (paper: 1, 1)
     rk_beta: float = 4.0
     rk_hard_gate: bool = True  # freeze the background of foreground pixels
-    rk_gate_max_s: float = 10.0  # ... for at most this long (then absorbed)
+    rk_gate_max_s: float = 5.0  # ... for at most this long (then absorbed)
     rk_q0: float = 1.0  # initial process variance (grey levels^2)
     rk_r0: float = 16.0  # initial observation variance (grey levels^2)
     rk_warmup_s: float = 0.4
     rk_work_scale: float = 0.5  # the model runs on the image downscaled by this (1: native)
     rk_colour: bool = True  # one model per BGR channel instead of grey
     rk_open_px: int = 0
-    rk_close_px: int = 5
+    rk_close_px: int = 7
     rk_empirical_test: bool = False  # also test against the plain innovation energy (sea glint)
     rk_test_window_s: float = 20.0  # memory of that energy
     rk_persist_px: int = 0  # foreground must persist from the last frame within this (0: off)
     rk_r_min: float = 4.0  # floor of the learned observation variance (grey levels^2)
-    rk_absorb: bool = False  # foreground longer than the gate: re-initialise the pixel (change point)
+    rk_absorb: bool = True  # foreground longer than the gate: re-initialise the pixel (change point)
     rk_ghost_frac: float = 0.0  # young model: gate limit = this x time since the first frame (0: off)
-    rk_r0_local_px: int = 0  # first frame's r = local variance over this many px (0: r0 everywhere)
-    rk_k_low: float = 0.0  # hysteresis: grow seeds (> k) over pixels > k_low (0: off)
-    rk_neighbour_px: int = 0  # a seed must beat every background within this many px (0: off)
+    rk_r0_local_px: int = 5  # first frame's r = local variance over this many px (0: r0 everywhere)
+    rk_k_low: float = 5.0  # hysteresis: grow seeds (> k) over pixels > k_low (0: off)
+    rk_neighbour_px: int = 1  # a seed must beat every background within this many px (0: off)
 
 
 @dataclass(frozen=True)

@@ -510,15 +510,18 @@ class RobustKalmanBackground:
 class RobustKalmanDetector:
     """Detector (``name = "robust_kalman"``): robust Kalman background model + 8-connected blobs.
 
-    The defaults are those tuned on the simulator's fixed-camera scenes (``docs/paper_c.md``):
-    ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard gating for at most 10 s,
-    colour, half resolution, ``r >= 4``, a 5 px closing.  :class:`RobustKalmanBackground` keeps
-    the paper's (``k = 3``, N = 50 frames, ``alpha = beta = 1``, no gating).
+    The defaults are those tuned on seed 1 of the simulator's fixed-camera scenes
+    (``docs/paper_c.md``): ``k = 8``, a 20 s EM memory, Gamma prior ``alpha = beta = 4``, hard
+    gating for at most 5 s and then a change point (``absorb``), the first frame's ``r`` from its
+    local variance over 5 px, hysteresis down to ``k_low = 5`` from seeds that also beat their
+    neighbours' backgrounds (1 px), colour, half resolution, ``r >= 4``, a 7 px closing.
+    :class:`RobustKalmanBackground` keeps the paper's (``k = 3``, N = 50 frames,
+    ``alpha = beta = 1``, no gating, none of the additions).
 
     Parameters
     ----------
     k_sigma, window_s, alpha, beta, hard_gate, gate_max_s, q0, r0, warmup_s, empirical_test,
-    test_window_s, r_min
+    test_window_s, r_min, absorb, ghost_frac, r0_local_px, k_low, neighbour_px
         See :class:`RobustKalmanBackground`.
     work_scale : float
         The model runs on the image area-averaged by this factor (0.5: a quarter of the pixels,
@@ -545,10 +548,10 @@ class RobustKalmanDetector:
                  beta: float = 4.0, hard_gate: bool = True, q0: float = 1.0, r0: float = 16.0,
                  warmup_s: float = 0.4, work_scale: float = 0.5, colour: bool = True,
                  min_area_px: float = 30.0, max_area_frac: float = 0.25, open_px: int = 0,
-                 close_px: int = 5, empirical_test: bool = False, test_window_s: float = 20.0,
-                 persist_px: int = 0, r_min: float = 4.0, gate_max_s: float = 10.0,
-                 absorb: bool = False, ghost_frac: float = 0.0, r0_local_px: int = 0,
-                 k_low: float | None = None, neighbour_px: int = 0,
+                 close_px: int = 7, empirical_test: bool = False, test_window_s: float = 20.0,
+                 persist_px: int = 0, r_min: float = 4.0, gate_max_s: float = 5.0,
+                 absorb: bool = True, ghost_frac: float = 0.0, r0_local_px: int = 5,
+                 k_low: float | None = 5.0, neighbour_px: int = 1,
                  camera=None) -> None:
         self.model = RobustKalmanBackground(k_sigma=k_sigma, window_s=window_s, alpha=alpha,
                                             beta=beta, hard_gate=hard_gate, q0=q0, r0=r0,
