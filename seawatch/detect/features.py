@@ -422,7 +422,7 @@ class StableFeatureExtractor:
         work_width_px: int = 0,
         prior_radius_px: float = 3.0,
         descriptor_scale: float = 1.0,
-        descriptor_width_px: int = 480,
+        descriptor_width_px: int = 320,
         homography_min_span: float = 0.4,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:

@@ -368,13 +368,14 @@ class AffinityClusters:
 def grow_boxes(
     image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
-    peak_frac: float = 0.3, return_contrast: bool = False,
+    peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
+    return_contrast: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
     A cluster's features lie inside the hull, so the extent of its features is smaller than the
     object.  Around each box, a window grown by ``grow`` times the box's larger side (at least
-    ``min_grow_px``) on every side is segmented against its background: each row's background
+    ``min_grow_px``, at most ``max_grow_px``, which bounds the cost) on every side is segmented against its background: each row's background
     is the median of the window's left and right border strips (a tenth of the window wide, at
     least ``border_px``; this follows the sky-to-sea gradient at the horizon), a pixel is foreground where it differs from it by
     more than the larger of ``k_sigma`` times the border's robust noise and ``min_contrast``
@@ -383,8 +384,9 @@ def grow_boxes(
     connected components that touch the core and not the window's left or right edge make the
     new box.  The box is kept as it was
     when nothing touches the core or the foreground fills more than ``max_fill`` of the window
-    (a textured background, not one object), and when the core itself does not stand out from
-    the background.  Not in the paper.
+    (a textured background, not one object), when the core itself does not stand out from the
+    background, and when the box covers more than ``max_area_frac`` of the image.  Not in the
+    paper.
 
     Parameters
     ----------
@@ -409,7 +411,9 @@ def grow_boxes(
     contrast = np.full(len(out), np.nan)
     for n in range(len(out)):
         x, y, w, h = out[n]
-        gx = gy = max(min_grow_px, grow * max(w, h))  # features often lie along a line
+        if w * h > max_area_frac * hh * ww:
+            continue  # a cluster this large is no small hull hidden inside its features' extent
+        gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))
         x1, y1 = int(min(ww, np.ceil(x + w + gx))), int(min(hh, np.ceil(y + h + gy)))
         bw = max(b, int(round(0.1 * (x1 - x0))))
@@ -435,7 +439,7 @@ def grow_boxes(
         if fg.mean() > max_fill:
             continue
         fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
-        nlab, lab = cv2.connectedComponents(fg, connectivity=8)
+        nlab, lab, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
         if nlab <= 1:
             continue
         sub = lab[core]
@@ -448,9 +452,9 @@ def grow_boxes(
         hit = np.setdiff1d(hit, edge)
         if len(hit) == 0:
             continue
-        ys, xs = np.nonzero(np.isin(lab, hit))
-        nx0, nx1 = xs.min() + x0, xs.max() + x0 + 1
-        ny0, ny1 = ys.min() + y0, ys.max() + y0 + 1
+        st = stats[hit]  # left, top, width, height, area of each component
+        nx0, nx1 = st[:, 0].min() + x0, (st[:, 0] + st[:, 2]).max() + x0
+        ny0, ny1 = st[:, 1].min() + y0, (st[:, 1] + st[:, 3]).max() + y0
         # the object must cover most of the core (not a speck of noise at its corner)
         cw1, ch1 = max(cw, 1.0), max(ch, 1.0)
         iw = min(nx1, cx + cw1) - max(nx0, cx)
