@@ -19,6 +19,7 @@ video2.
 
 from __future__ import annotations
 
+import os
 import re
 import time
 from pathlib import Path
@@ -105,7 +106,8 @@ def run(ctx) -> None:
 
     quick = ctx.quick
     frames, gt = _video2(ctx, quick)
-    model = default_model_path()
+    # another cascade (with its JSON) in place of the shipped one: SEAWATCH_CASCADE_MODEL=path
+    model = Path(os.environ.get("SEAWATCH_CASCADE_MODEL") or default_model_path())
     if not model.is_file():
         ctx.skip(f"no shipped model at {model}")
     ds = "mardct_video2"
