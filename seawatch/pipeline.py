@@ -301,7 +301,9 @@ class Pipeline:
         else:
             det = self.detector.detect(frame)
             t1 = time.perf_counter()
-            if cam is not None and len(det) and det.azel_deg is None:
+            # the camera at this frame's PTZ state is authoritative: a detector built with the
+            # base camera (e.g. the robust Kalman blobs) would miss the pan/tilt/zoom
+            if cam is not None and len(det):
                 u = det.boxes[:, 0] + det.boxes[:, 2] / 2
                 v = det.boxes[:, 1] + det.boxes[:, 3]
                 az, el = cam.pixel_to_azel(u, v)
