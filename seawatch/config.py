@@ -37,7 +37,7 @@ class RunSettings:
 
 @dataclass(frozen=True)
 class DetectorSettings:
-    kind: str = "mog2"  # mog2 | cascade | robust_kalman | stable_features
+    kind: str = "robust_kalman"  # robust_kalman (paper C) | mog2 (baseline) | cascade (paper A) | stable_features (paper B)
     # MOG2 baseline
     mog2_history_s: float = 60.0
     mog2_var_threshold: float = 64.0

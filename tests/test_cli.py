@@ -54,7 +54,7 @@ def test_run_writes_outputs_and_prints_a_summary(tmp_path, video, capsys):
     text = capsys.readouterr().out
     assert "40 frames processed" in text and str(out) in text
     s = json.loads((out / "summary.json").read_text())
-    assert s["frames_processed"] == 40 and s["detector"] == "mog2"
+    assert s["frames_processed"] == 40 and s["detector"] == "robust_kalman"
     assert (out / "tracks.csv").is_file() and (out / "annotated.mp4").is_file()
 
 
@@ -238,10 +238,12 @@ def test_run_on_a_simulated_scenario_with_camera_ptz_and_ais(tmp_path, capsys):
 
 @pytest.mark.parametrize("setting, key", [
     ("run.modality=UV", "modality"), ("run.fps=-1", "fps"), ("output.video_codec=h264x", "video_codec"),
-    ("tracker.confirm_hits=0", "confirm_hits"), ("detector.mog2_history_s=-3", "history_s"),
+    ("tracker.confirm_hits=0", "confirm_hits"), ("detector.rk_k_sigma=-3", "k_sigma"),
+    ("detector.kind=mog2 detector.mog2_history_s=-3", "history_s"),
 ])
 def test_invalid_setting_values_fail_naming_the_key(tmp_path, video, capsys, setting, key):
-    rc = main(["run", str(video), "--set", setting, "--out", str(tmp_path / "o"), "--quiet"])
+    sets = [a for s in setting.split() for a in ("--set", s)]
+    rc = main(["run", str(video), *sets, "--out", str(tmp_path / "o"), "--quiet"])
     assert rc == EXIT_FAIL
     err = _err(capsys)
     assert key in err and "Traceback" not in err

@@ -8,7 +8,7 @@ from seawatch.config import Config, ConfigError, apply_overrides, config_to_dict
 def test_defaults():
     cfg = load_config(None)
     assert isinstance(cfg, Config)
-    assert cfg.detector.kind == "mog2" and cfg.tracker.kind == "sort"
+    assert cfg.detector.kind == "robust_kalman" and cfg.tracker.kind == "sort"
     assert cfg.output.video and cfg.output.mot_csv and cfg.output.jsonl
 
 

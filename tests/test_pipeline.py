@@ -55,7 +55,7 @@ def test_run_on_video_writes_every_output_and_tracks_the_boats(tmp_path, scene):
                  "summary.json"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
     assert s["frames_read"] == s["frames_processed"] == 90 and s["bad_frames"] == 0
-    assert s["detector"] == "mog2" and s["tracker"] == "sort"
+    assert s["detector"] == "robust_kalman" and s["tracker"] == "sort"  # the defaults
     assert json.loads((out / "summary.json").read_text())["frames_processed"] == 90
 
     trk = read_mot_csv(out / "tracks.csv")
@@ -91,7 +91,7 @@ def test_run_on_video_writes_every_output_and_tracks_the_boats(tmp_path, scene):
     dj = read_jsonl(out / "detections.jsonl")
     dc = read_mot_csv(out / "detections.csv")
     assert len(dj) == len(dc) == s["detections"] and np.all(dc[:, 1] == -1)
-    assert dj[0]["source"] == "mog2"
+    assert dj[0]["source"] == "robust_kalman"
 
     # the annotated video has every frame at the source size
     cap = cv2.VideoCapture(str(out / "annotated.mp4"))
@@ -189,7 +189,8 @@ def test_registry_unknown_and_unavailable_stages():
 
 
 def test_registry_builds_with_from_config_and_fps():
-    det = build_detector(_cfg("detector.mog2_history_s=3"), 20.0)
+    assert build_detector(_cfg(), 20.0).name == "robust_kalman"  # the default
+    det = build_detector(_cfg("detector.kind=mog2", "detector.mog2_history_s=3"), 20.0)
     assert det.name == "mog2" and det.history_frames == 60
     trk = build_tracker(_cfg("tracker.confirm_hits=4"), 20.0)
     assert trk.name == "sort" and trk.confirm_hits == 4
