@@ -34,6 +34,7 @@ from typing import Any, Iterable, Protocol
 import numpy as np
 
 from seawatch.config import Config, ConfigError, config_to_dict
+from seawatch.detect.blobs import boxes_azel
 from seawatch.types import Detections, Frame, Tracks, TrackState
 
 __all__ = [
@@ -304,10 +305,7 @@ class Pipeline:
             # the camera at this frame's PTZ state is authoritative: a detector built with the
             # base camera (e.g. the robust Kalman blobs) would miss the pan/tilt/zoom
             if cam is not None and len(det):
-                u = det.boxes[:, 0] + det.boxes[:, 2] / 2
-                v = det.boxes[:, 1] + det.boxes[:, 3]
-                az, el = cam.pixel_to_azel(u, v)
-                det.azel_deg = np.stack([np.asarray(az, float), np.asarray(el, float)], axis=1)
+                det.azel_deg = boxes_azel(det.boxes, cam, "bottom")
             trk = self.tracker.update(det, frame)
             t2 = time.perf_counter()
         alerts: list = []

@@ -240,7 +240,7 @@ def test_camera_and_ptz_give_azimuth_elevation_and_horizon(tmp_path, scene):
     cam = cam.with_intrinsics(cam.intrinsics.scaled_to(320, 240)).with_pose(pan_deg=90.0)
     d = dets[-1]
     x, y, w, h = d["box"]
-    az, el = cam.pixel_to_azel(x + w / 2, y + h)
+    az, el = cam.pixel_to_azel(x + w / 2 - 0.5, y + h - 0.5)  # box edges -> pixel centres
     assert d["azel_deg"][0] == pytest.approx(float(az), abs=0.01)
     assert d["azel_deg"][1] == pytest.approx(float(el), abs=0.01)
     assert 70 < d["azel_deg"][0] < 110  # the PTZ pan (90 deg), not the file's 0 deg

@@ -14,7 +14,7 @@ import numpy as np
 
 from seawatch.types import Detections
 
-__all__ = ["find_blobs", "blobs_to_detections", "box_reference_points"]
+__all__ = ["find_blobs", "blobs_to_detections", "box_reference_points", "boxes_azel"]
 
 
 def find_blobs(
@@ -77,6 +77,17 @@ def box_reference_points(boxes: np.ndarray, ref: str = "bottom") -> tuple[np.nda
     return u, v
 
 
+def boxes_azel(boxes: np.ndarray, camera, ref: str = "bottom") -> np.ndarray:
+    """Azimuth and elevation (degrees), ``(N, 2)``, of each box's reference point through ``camera``.
+
+    Boxes are in edge coordinates (pixel ``i`` spans ``[i, i + 1)``); the camera model works in
+    pixel centres, so an edge coordinate ``v`` is the pixel coordinate ``v - 0.5``.
+    """
+    u, v = box_reference_points(boxes, ref)
+    az, el = camera.pixel_to_azel(u - 0.5, v - 0.5)
+    return np.stack([np.asarray(az, np.float64).reshape(-1), np.asarray(el, np.float64).reshape(-1)], axis=1)
+
+
 def blobs_to_detections(
     boxes: np.ndarray,
     t_s: float,
@@ -105,9 +116,5 @@ def blobs_to_detections(
     s = np.ones(len(b)) if scores is None else np.asarray(scores, np.float64).reshape(-1)
     azel = None
     if camera is not None:
-        u, v = box_reference_points(b, ref)
-        # the camera model works in pixel centres: a box edge at v is the pixel row v - 0.5
-        az, el = camera.pixel_to_azel(u - 0.5, v - 0.5)
-        azel = np.stack([np.asarray(az, np.float64).reshape(-1),
-                         np.asarray(el, np.float64).reshape(-1)], axis=1)
+        azel = boxes_azel(b, camera, ref)
     return Detections(float(t_s), int(frame_index), b, s, source, camera_id, azel)
