@@ -122,3 +122,17 @@ def test_two_clusters_on_one_boat_are_reported_once_with_the_older_identity():
     _, tr = merged.update(snap(xy, vel, 0.0, 0), img)
     assert tr.ids.tolist() == [1] and tr.boxes[0].tolist() == pytest.approx([100, 60, 30, 38])
     assert tr.velocities[0].tolist() == pytest.approx([10, 10])
+
+
+def test_relink_memory_stays_bounded_in_a_long_run():
+    """Cluster identities come and go for hours in a live run: the relinker's tables must not
+    keep every identity ever seen, yet an identity seen recently keeps its alias."""
+    from types import SimpleNamespace
+
+    fc = FeatureClusterer(ClusterParams())
+    box = np.array([[100.0, 100.0, 30.0, 10.0]])
+    for i in range(3000):  # a new cluster identity every 0.5 s, each seen once
+        snap = SimpleNamespace(t_s=0.5 * i, homography=np.eye(3))
+        fc._relink(snap, np.array([i + 1], np.int64), box)
+    assert len(fc._known) < 200 and len(fc._alias) <= len(fc._known)
+    assert 3000 in fc._known  # the latest identity is remembered

@@ -552,7 +552,7 @@ class FeatureClusterer:
 
     def _relink_reset(self) -> None:
         self._alias: dict[int, int] = {}  # cluster identity -> reported identity
-        self._known: set[int] = set()  # cluster identities seen
+        self._known: dict[int, float] = {}  # cluster identity -> last time seen
         self._lost: dict[int, tuple[float, np.ndarray]] = {}  # reported identity -> (time lost, box)
         self._prev_boxes: dict[int, np.ndarray] = {}  # reported identity -> last box
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
@@ -609,7 +609,11 @@ class FeatureClusterer:
         for i in dup:
             self._alias.pop(int(cids[i]), None)
             rep[i] = int(cids[i])
-        self._known.update(int(c) for c in cids)
+        self._known.update((int(c), t) for c in cids)
+        if len(self._known) > 4 * max(len(cids), 16):  # bounded memory in a long live run
+            memory_s = max(10.0, 5.0 * p.relink_s)
+            self._known = {k: tk for k, tk in self._known.items() if t - tk <= memory_s}
+            self._alias = {k: v for k, v in self._alias.items() if k in self._known}
         now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
         for k, b in self._prev_boxes.items():
             if k not in now:
