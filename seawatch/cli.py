@@ -477,6 +477,8 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         early = tuple(int(v) for v in str(args.early_weak_counts).split(",") if v.strip())
     except ValueError:
         raise CLIError(f"--early-weak-counts {args.early_weak_counts!r}: expected integers like 4,8,16") from None
+    if not 0.0 <= args.lowres_prob <= 1.0:
+        raise CLIError(f"--lowres-prob {args.lowres_prob}: expected a probability in [0, 1]")
     s = TrainSettings(
         early_weak_counts=early,
         width_px=ww, height_px=wh, n_stages=args.stages, min_hit_rate=args.min_hit_rate,

@@ -325,3 +325,13 @@ def test_mog2_and_robust_kalman_share_the_blob_extraction():
         b2, f2 = foreground_boxes(m, min_area_px=5, max_area_px=4000, open_px=o, close_px=c)
         np.testing.assert_array_equal(b1, b2)
         np.testing.assert_allclose(a1 / np.maximum(b1[:, 2] * b1[:, 3], 1), f2)
+
+
+@pytest.mark.parametrize("kw, word", [
+    ({"k_low": float("nan")}, "k_low"), ({"k_low": -1.0}, "k_low"),
+    ({"absorb": True, "gate_max_s": 0.0}, "gate_max_s"), ({"neighbour_px": 50}, "neighbour_px"),
+    ({"r0_local_px": -2}, "r0_local_px"), ({"ghost_frac": 1.5}, "ghost_frac"),
+])
+def test_invalid_settings_are_rejected_naming_the_parameter(kw, word):
+    with pytest.raises(ValueError, match=word):
+        RobustKalmanBackground(**kw)

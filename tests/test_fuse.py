@@ -532,3 +532,10 @@ def _wake_run(wake_s: float):
 def test_no_ais_not_raised_for_a_track_born_on_a_vessels_trail():
     assert _wake_run(10.0) == []
     assert [a.track_id for a in _wake_run(0.0)] == [6]  # without the wake rule: a false "no AIS"
+
+
+@pytest.mark.parametrize("key, value", [("wake_s", -1.0), ("wake_s", float("nan")), ("no_ais_dwell_s", -5.0),
+                                        ("ais_warmup_s", float("inf"))])
+def test_invalid_time_settings_are_rejected_naming_the_key(key, value):
+    with pytest.raises(ValueError, match=f"'{key}'"):
+        Fuser(CAM, FusionSettings(**{key: value}))

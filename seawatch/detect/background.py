@@ -400,8 +400,19 @@ class RobustKalmanBackground:
                  neighbour_px: int = 0) -> None:
         if window_s <= 0:
             raise ValueError(f"RobustKalmanBackground: window_s must be positive, got {window_s}")
-        if k_sigma <= 0:
+        if not k_sigma > 0:
             raise ValueError(f"RobustKalmanBackground: k_sigma must be positive, got {k_sigma}")
+        if k_low is not None and not k_low > 0:  # k_low >= k_sigma: no hysteresis
+            raise ValueError(f"RobustKalmanBackground: k_low must be positive (None: off), got {k_low}")
+        if absorb and not gate_max_s > 0:
+            raise ValueError(f"RobustKalmanBackground: gate_max_s must be positive when absorb is on "
+                             f"(0 would absorb every foreground pixel at once), got {gate_max_s}")
+        if not 0 <= int(neighbour_px) <= 3:
+            raise ValueError(f"RobustKalmanBackground: neighbour_px must be 0..3, got {neighbour_px}")
+        if not 0 <= int(r0_local_px) <= 31:
+            raise ValueError(f"RobustKalmanBackground: r0_local_px must be 0..31, got {r0_local_px}")
+        if not 0.0 <= ghost_frac <= 1.0:
+            raise ValueError(f"RobustKalmanBackground: ghost_frac must be in [0, 1], got {ghost_frac}")
         self.k_sigma = float(k_sigma)
         self.window_s = float(window_s)
         self.alpha = float(alpha)

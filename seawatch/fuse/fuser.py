@@ -173,6 +173,10 @@ class Fuser:
     def __init__(self, camera, settings: FusionSettings | None = None, ais=None, radar=None,
                  camera_id: str = "cam0"):
         self.settings = s = settings or FusionSettings()
+        for key in ("wake_s", "ais_warmup_s", "no_ais_dwell_s", "spoof_dwell_s", "ais_unseen_dwell_s"):
+            v = getattr(s, key, 0.0)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"[fusion] key '{key}': expected a finite number of seconds >= 0, got {v}")
         self.camera = camera
         self.camera_id = camera_id
         lat0, lon0 = camera.pose.lat_deg, camera.pose.lon_deg
