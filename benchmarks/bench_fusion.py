@@ -409,6 +409,9 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
 
 
 SCENARIO_SEEDS = (0, 1, 2, 3, 4)
+# the "no AIS" rule was developed looking at seeds 0-4; these seeds were never looked at before
+# their figures were recorded, so they say how the rule carries over
+HELDOUT_SEEDS = (5, 6, 7, 8, 9)
 
 
 def _bench_scenarios(ctx) -> None:
@@ -423,17 +426,21 @@ def _bench_scenarios(ctx) -> None:
     runs = [("harbour", True, 0.0, 0.0), ("harbour", False, 0.0, 0.0), ("harbour", True, 15.0, 0.0),
             ("harbour", False, 15.0, 0.0), ("harbour", True, 0.0, 300.0), ("harbour", False, 0.0, 300.0),
             ("open_sea", True, 0.0, 0.0), ("open_sea", False, 0.0, 0.0)]
-    for name, oracle, start, lead in runs:
+    if not ctx.quick:  # harbour at a cold start on the held-out seeds
+        runs += [("harbour", True, 0.0, 0.0, HELDOUT_SEEDS), ("harbour", False, 0.0, 0.0, HELDOUT_SEEDS)]
+    for name, oracle, start, lead, *held in runs:
         method = ("gt_boxes+fusion" if oracle else "default_detector+tracker+fusion") + (
             f"_camera_from_{start:.0f}s" if start else "") + (f"_ais_live_{lead:.0f}s_before" if lead else "")
         seeds = SCENARIO_SEEDS if (name == "harbour" and not start and not ctx.quick) else (0,)
+        if held:
+            seeds, method = held[0], method + "_heldout"
         res = {}
         for sd in seeds:
             try:
                 res[sd] = scenario_run(name, sd, oracle, dur, start, lead)
             except Exception as exc:  # an unfinished stage must not hide the other figures
                 ctx.record(name, method, "not_run", float("nan"), "", reason=f"{type(exc).__name__}: {exc}", seed=sd)
-        if 0 in res:
+        if 0 in res and not held:
             r = res[0]
             ctx.record(name, method, "correct_mmsi_frac_tracked", r["correct_mmsi_frac_tracked"], "fraction")
             ctx.record(name, method, "correct_mmsi_frac_all", r["correct_mmsi_frac_all"], "fraction")
@@ -467,7 +474,7 @@ def _bench_scenarios(ctx) -> None:
                                                                             for k in res])), "fraction")
             ctx.record(name, m, "wrong_mmsi_frac", float(max(res[k]["wrong_mmsi_frac"] for k in res)), "fraction",
                        target=0.02, aggregate="max over seeds")
-            if res[0]["spoofed"]:
+            if next(iter(res.values()))["spoofed"]:
                 sp = [res[k]["spoof_flag_delay_s"] for k in sorted(res)]
                 sp2 = [res[k]["spoof_flag_delay_after_first_spoofed_report_s"] for k in sorted(res)]
                 ok = [x for x in sp if x == x]
