@@ -7,12 +7,13 @@ included, exactly as the demo does (``seawatch demo --seed S --set detector.kind
 tracker.kind=..``), and scores tracks (HOTA, MOTA, IDF1, IDSW), raw detections (F1) and fusion
 (share of matched track frames with the correct MMSI) against the scene's exact ground truth.
 
-The default is chosen on the *selection* seeds 1-4 by the mean rank over four scores: HOTA, MOTA,
+The default is chosen on the *selection* seeds 2-4 (seed 1 is where the MOG2 and robust Kalman
+defaults were tuned, seed 0 is the demo's) by the mean rank over four scores: HOTA, MOTA,
 IDF1 and the share of matched track frames given the correct MMSI (the demo exists to show the
 operator identities). This rule was adopted after a first run chose by HOTA alone and found MOG2+SORT
 and robust Kalman+SORT level on HOTA (0.346 vs 0.337, within the spread over seeds) but far apart on
 MOTA (-0.26 vs +0.06) and correct MMSI (70 % vs 86 %); see docs/pipeline.md. Seed 0, the demo's own
-scene, is reported separately and is not used for the choice. ``--quick`` runs seeds 1-2 and the first 200
+scene, is reported separately and is not used for the choice. ``--quick`` runs seeds 2-3 and the first 200
 frames.
 """
 
@@ -28,11 +29,11 @@ from pathlib import Path
 import numpy as np
 
 NAME = "demo"
-DESCRIPTION = "demo pipeline choice: detector x tracker end to end on harbour (select on seeds 1-4, report seed 0)"
+DESCRIPTION = "demo pipeline choice: detector x tracker end to end on harbour (select on seeds 2-4, report seed 0)"
 
 DETECTORS = ["mog2", "robust_kalman", "cascade"]
 TRACKERS = ["sort", "ptracking"]
-SELECTION_SEEDS = [1, 2, 3, 4]
+SELECTION_SEEDS = [2, 3, 4]  # seed 1 is where the MOG2 and robust Kalman defaults were tuned
 DEMO_SEED = 0
 CHOICE_METRICS = ("HOTA", "MOTA", "IDF1", "mmsi_correct")
 
