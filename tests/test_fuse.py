@@ -539,3 +539,17 @@ def test_no_ais_not_raised_for_a_track_born_on_a_vessels_trail():
 def test_invalid_time_settings_are_rejected_naming_the_key(key, value):
     with pytest.raises(ValueError, match=f"'{key}'"):
         Fuser(CAM, FusionSettings(**{key: value}))
+
+
+def test_a_re_born_track_inherits_the_no_ais_flag_within_the_range_error():
+    """The waterline range of a box is uncertain by ``range_frac``: a vessel re-tracked 2 s later
+    100 m further out at 500 m is the same vessel; one 400 m away, or after a minute, is not."""
+    fuser = Fuser(CAM, FusionSettings(range_frac=0.3))
+    fuser._no_ais_last = {1: (10.0, 0.0, 500.0)}  # flagged track 1, last seen at 10 s, 500 m north
+    assert fuser._inherits_no_ais(2, 12.0, 0.0, 600.0)
+    assert not fuser._inherits_no_ais(2, 12.0, 0.0, 900.0)
+    strict = Fuser(CAM, FusionSettings(range_frac=0.0))
+    strict._no_ais_last = {1: (10.0, 0.0, 500.0)}
+    assert not strict._inherits_no_ais(2, 12.0, 0.0, 600.0)  # without the range error: 100 m > 50 m
+    fuser._no_ais_last = {1: (10.0, 0.0, 500.0)}
+    assert not fuser._inherits_no_ais(2, 75.0, 0.0, 500.0)  # forgotten after 60 s

@@ -804,7 +804,12 @@ class Fuser:
         return bool(np.any(m & (np.hypot(a[:, 1] - e, a[:, 2] - n) <= tol)))
 
     def _inherits_no_ais(self, tid: int, t: float, e: float, n: float) -> bool:
-        """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked."""
+        """Whether a flagged track ended (or is) near here recently: the same vessel, re-tracked.
+
+        Near: within 30 m, plus 10 m/s of travel over the gap, plus the waterline range error
+        (``range_frac`` of the range; positions east/north are relative to the camera).
+        """
+        frac = self.settings.range_frac
         for other, (t0, e0, n0) in list(self._no_ais_last.items()):
             if other == tid:
                 continue
@@ -812,7 +817,8 @@ class Fuser:
             if gap > 60.0:
                 del self._no_ais_last[other]
                 continue
-            if math.hypot(e - e0, n - n0) <= 30.0 + 10.0 * gap:
+            tol = 30.0 + 10.0 * gap + frac * max(math.hypot(e, n), math.hypot(e0, n0))
+            if math.hypot(e - e0, n - n0) <= tol:
                 return True
         return False
 
