@@ -553,3 +553,22 @@ def test_a_re_born_track_inherits_the_no_ais_flag_within_the_range_error():
     assert not strict._inherits_no_ais(2, 12.0, 0.0, 600.0)  # without the range error: 100 m > 50 m
     fuser._no_ais_last = {1: (10.0, 0.0, 500.0)}
     assert not fuser._inherits_no_ais(2, 75.0, 0.0, 500.0)  # forgotten after 60 s
+
+
+def test_track_angles_use_the_camera_pixel_centre_convention():
+    """A box whose bottom edge centre sits on the principal point (edge coordinates) lies on the optical axis."""
+    from seawatch.fuse.associate import track_angles, waterline_px
+
+    K = CAM.intrinsics
+    w, h = 10.0, 6.0
+    # edge coordinate cx + 0.5 is the centre of pixel cx
+    box = np.array([[K.cx + 0.5 - w / 2, K.cy + 0.5 - h, w, h]])
+    u, v = waterline_px(box)
+    assert u[0] == pytest.approx(K.cx) and v[0] == pytest.approx(K.cy)
+    ta = track_angles(CAM, box)
+    az, el = CAM.pixel_to_azel(np.array([K.cx]), np.array([K.cy]))
+    assert ta.az_deg[0] == pytest.approx(float(az[0]) % 360.0, abs=1e-9)
+    assert ta.el_deg[0] == pytest.approx(float(el[0]), abs=1e-9)
+    # the old convention (no shift) would be half a pixel off: about 0.023 deg at 60 deg / 1280 px
+    az_old, _ = CAM.pixel_to_azel(np.array([K.cx + 0.5]), np.array([K.cy + 0.5]))
+    assert abs(float(az_old[0]) - float(az[0])) > 0.01

@@ -18,7 +18,7 @@ from scipy.optimize import linear_sum_assignment
 
 from seawatch.fuse.table import TargetStates
 
-__all__ = ["AngleHistory", "index_of", "TrackAngles", "TargetAngles", "track_angles", "target_angles", "pair_distance2",
+__all__ = ["AngleHistory", "index_of", "TrackAngles", "TargetAngles", "track_angles", "waterline_px", "target_angles", "pair_distance2",
            "angle_diff_deg", "WindowAssociator"]
 
 
@@ -68,6 +68,17 @@ class TargetAngles:
     del_dr: np.ndarray  # d(elevation)/d(range), deg per metre
 
 
+def waterline_px(boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel coordinates (camera-model convention) of each box's bottom centre, its waterline point.
+
+    Boxes are in edge coordinates (pixel ``i`` spans ``[i, i + 1)``); the camera model works in
+    pixel centres, so an edge coordinate ``x`` is the pixel coordinate ``x - 0.5`` (as
+    ``seawatch.detect.blobs.boxes_azel`` does for detections).
+    """
+    b = np.asarray(boxes, float).reshape(-1, 4)
+    return b[:, 0] + b[:, 2] / 2 - 0.5, b[:, 1] + b[:, 3] - 0.5
+
+
 def track_angles(camera, boxes: np.ndarray, velocities_px_s: np.ndarray | None = None,
                  pan_offset_deg: float = 0.0, tilt_offset_deg: float = 0.0,
                  ages_s: np.ndarray | None = None, min_rate_age_s: float = 1.0) -> TrackAngles:
@@ -86,10 +97,10 @@ def track_angles(camera, boxes: np.ndarray, velocities_px_s: np.ndarray | None =
     b = np.asarray(boxes, float).reshape(-1, 4)
     n = len(b)
     vel = np.zeros((n, 2)) if velocities_px_s is None else np.asarray(velocities_px_s, float).reshape(-1, 2)
-    u = b[:, 0] + b[:, 2] / 2
-    v = b[:, 1] + b[:, 3]
-    uu = np.concatenate([u, b[:, 0], b[:, 0] + b[:, 2], u + vel[:, 0], u])
-    vv = np.concatenate([v, v, v, v + vel[:, 1], b[:, 1]])
+    u, v = waterline_px(b)
+    x0, y0 = b[:, 0] - 0.5, b[:, 1] - 0.5
+    uu = np.concatenate([u, x0, x0 + b[:, 2], u + vel[:, 0], u])
+    vv = np.concatenate([v, v, v, v + vel[:, 1], y0])
     az, el = camera.pixel_to_azel(uu, vv)
     az0, el0 = az[:n], el[:n]
     half = 0.5 * np.abs(angle_diff_deg(az[2 * n:3 * n], az[n:2 * n]))

@@ -21,6 +21,7 @@ from seawatch.fuse.associate import (
     pair_distance2,
     target_angles,
     track_angles,
+    waterline_px,
 )
 from seawatch.fuse.table import TargetTable
 from seawatch.fuse.theta import calibrate_theta_pg, estimate_theta_robust, velocity_cost
@@ -450,9 +451,7 @@ class Fuser:
 
     def _ground_velocity(self, cam, tracks: Tracks) -> np.ndarray:
         """Camera tracks' sea-surface velocity (east, north) m/s in the nominal camera frame."""
-        b = tracks.boxes
-        u = b[:, 0] + b[:, 2] / 2
-        v = b[:, 1] + b[:, 3]
+        u, v = waterline_px(tracks.boxes)
         vel = tracks.velocities
         e, nn, _ = cam.pixel_to_sea_enu(np.concatenate([u, u + vel[:, 0]]), np.concatenate([v, v + vel[:, 1]]))
         m = len(u)
@@ -462,8 +461,7 @@ class Fuser:
         """Keep each track's waterline sea position (nominal camera frame) for its velocity."""
         if len(tracks) == 0:
             return
-        b = tracks.boxes
-        e, nn, _ = cam.pixel_to_sea_enu(b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3])
+        e, nn, _ = cam.pixel_to_sea_enu(*waterline_px(tracks.boxes))
         for tid, ee, en in zip(tracks.ids.tolist(), e.tolist(), nn.tolist()):
             h = self._track_pos.get(tid)
             if h is None:
