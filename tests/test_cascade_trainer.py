@@ -296,3 +296,29 @@ def test_detector_settings_are_chosen_over_boat_sizes(trained):
         c = np.asarray(v["counts"])
         assert (c[0, :, 0] + c[0, :, 2]).sum() == n  # TP + FN = boats, at every threshold
         assert c[0, :, 0].sum() >= c[1, :, 0].sum()  # IoU 0.3 matches at least as many as 0.5
+
+
+def test_settings_are_chosen_on_the_select_on_sources_only(trained, tmp_path):
+    """Session 11's rule: with select_on="mardct" the settings are those of the best score on
+    the MarDCT validation images alone; the other sources are scored with them, not chosen on."""
+    import dataclasses
+    import json
+    import shutil
+
+    from seawatch.train.recipe import choose_detector_settings, select_detector_settings
+
+    _, _, xml = trained
+    model = tmp_path / "m.xml"
+    shutil.copy(xml, model)
+    shutil.copy(xml.with_suffix(".json"), model.with_suffix(".json"))
+    port = [dataclasses.replace(im, source="mardct") for im in _synthetic_images(2, 710)]
+    sim = _synthetic_images(2, 720, clutter=40)
+    parts = {"train": [], "val": port + sim, "heldout": []}
+    out = choose_detector_settings(model, parts, scale_factors=(1.2,), select_on="mardct", log=lambda m: None)
+    best, _ = select_detector_settings(model, port, scale_factors=(1.2,), log=lambda m: None)
+    assert out["detector"] == {k: best[k] for k in ("min_neighbors", "scale_factor", "neighbors_size_exp")}
+    assert out["selection"]["validation_images"] == {"mardct": 2, "sim": 0, "coral": 0}
+    assert set(out["validation_others"]) == {"sim"} and out["validation_others"]["sim"]["images"] == 2
+    assert json.loads(model.with_suffix(".json").read_text())["detector"] == out["detector"]
+    with pytest.raises(ValueError, match="select_on"):
+        choose_detector_settings(model, parts, select_on="video2", log=lambda m: None)

@@ -23,7 +23,7 @@ from seawatch.train.samples import (
 from seawatch.train.trainer import TrainSettings, train_cascade
 
 __all__ = ["load_training_data", "match_counts", "evaluate_images", "tune_min_neighbors", "train_default_model",
-           "select_detector_settings", "choose_detector_settings", "reselect_model"]
+           "select_detector_settings", "choose_detector_settings", "reselect_model", "SELECT_ON"]
 
 
 def load_training_data(data_dir: str | Path, use_sim: bool = True, sim_frames: int = 20, seed: int = 0
@@ -207,7 +207,7 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
 
 def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: TrainSettings | None = None,
                         use_sim: bool = True, command: str = "", log=print,
-                        scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3)) -> dict:
+                        scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3), select_on: str = "mardct") -> dict:
     """Train, tune and describe the default boat cascade (see the module docstring)."""
     s = settings or TrainSettings()
     t0 = time.perf_counter()
@@ -225,7 +225,8 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
     calib = calibrate_boxes(out_xml, [im for im in parts["train"] if im.source == "mardct"], log=log)
     _update_json(out_xml, calib)
     record.update(calib)
-    record.update(choose_detector_settings(out_xml, parts, log=log, scale_factors=scale_factors))
+    record.update(choose_detector_settings(out_xml, parts, log=log, scale_factors=scale_factors,
+                                           select_on=select_on))
     record["split"] = {k: sorted(im.name for im in v) for k, v in parts.items()}
     record["command"] = command
     record["total_time_s"] = round(time.perf_counter() - t0, 1)
@@ -234,21 +235,53 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
     return record
 
 
+SELECT_ON = {
+    # session 11's rule (fixed before it was run): the deployment is a moving, zooming port camera
+    "mardct": ("mardct",),
+    # session 10's rule: every validation source
+    "all": ("mardct", "sim", "coral"),
+}
+
+
 def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[LabelledImage]], log=print,
-                             scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3)) -> dict:
+                             scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3), select_on: str = "mardct",
+                             report_others: bool = True) -> dict:
     """Choose the detector settings on the validation part, store them beside the model and
     report the held-out part with them (the model's JSON gains ``detector``, ``validation``
     and ``heldout``).
 
-    Validation: the MarDCT and simulator frames, each scanned with the smallest boat at 0.5,
-    1, 2 and 3 times the automatic value, and the CORAL images with the smallest boat at
-    20 px (:func:`select_detector_settings`).  Never the held-out part, never MarDCT video2.
+    The criterion is :func:`select_detector_settings`'s (MarDCT and simulator frames each
+    scanned with the smallest boat at 0.5, 1, 2 and 3 times the automatic value, CORAL images
+    with the smallest boat at 20 px; mean over IoU 0.3 and 0.5 of the F1 averaged over
+    boat-size bins), computed on the validation images of the sources ``SELECT_ON[select_on]``:
+    ``"mardct"`` (the default since session 11: the 14 MarDCT validation frames only) or
+    ``"all"`` (session 10: MarDCT, simulator and CORAL).  With ``report_others`` the chosen
+    settings are also scored, not chosen, on the other validation sources
+    (``validation_others``).  Never the held-out part, never MarDCT video2.
     """
-    val = [im for im in parts["val"] if im.source in ("mardct", "sim", "coral")]
+    if select_on not in SELECT_ON:
+        raise ValueError(f"select_on {select_on!r}: expected one of {sorted(SELECT_ON)}")
+    srcs = SELECT_ON[select_on]
+    val = [im for im in parts["val"] if im.source in srcs]
+    if not val:
+        raise ValueError(f"select_on {select_on!r}: no validation images of {srcs}")
     best, table = select_detector_settings(model_xml, val, scale_factors=scale_factors,
                                            fixed_min_size_px={"coral": 20.0}, log=log)
     settings = {k: best[k] for k in ("min_neighbors", "scale_factor", "neighbors_size_exp")}
     _update_json(model_xml, {"detector": settings})
+    others = {}
+    if report_others:
+        for src in ("mardct", "sim", "coral"):
+            ims = [im for im in parts["val"] if im.source == src]
+            if src in srcs or not ims:
+                continue
+            o, _ = select_detector_settings(model_xml, ims, scale_factors=(settings["scale_factor"],),
+                                            candidates=(settings["min_neighbors"],),
+                                            size_exps=(settings["neighbors_size_exp"],),
+                                            fixed_min_size_px={"coral": 20.0}, log=lambda *a: None)
+            others[src] = {"images": len(ims), "score": 0.5 * (o["macro_F1@0.3"] + o["macro_F1@0.5"]),
+                           **{k: o[k] for k in ("macro_F1@0.3", "macro_F1@0.5", "boats_by_bin")}}
+            log(f"  reported, not chosen on: validation {src} ({len(ims)} images) score {others[src]['score']:.3f}")
     from seawatch.detect.cascade import CascadeDetector
 
     held = {}
@@ -263,20 +296,22 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
         "detector": settings,
         "selection": {"criterion": "mean over IoU 0.3 and 0.5 of the F1 averaged over boat-size bins "
                                    "(box width / smallest boat: " + ", ".join(f"{e:g}" for e in SIZE_BINS) + ")",
+                      "select_on": select_on,
                       "validation_images": {src: sum(im.source == src for im in val) for src in ("mardct", "sim", "coral")},
                       "best": best},
         "validation": table,
+        "validation_others": others,
         "heldout": {k: {str(i): v for i, v in r.items()} for k, r in held.items()},
     }
 
 
 def reselect_model(model_xml: str | Path, data_dir: str | Path, use_sim: bool = True, seed: int = 0,
-                   command: str = "", log=print) -> dict:
+                   command: str = "", log=print, select_on: str = "mardct") -> dict:
     """Choose a trained model's detector settings again (:func:`choose_detector_settings`) on the
     split :func:`load_training_data` makes, without retraining; updates the JSON beside it."""
     t0 = time.perf_counter()
     parts = load_training_data(data_dir, use_sim=use_sim, seed=seed)
-    upd = choose_detector_settings(model_xml, parts, log=log)
+    upd = choose_detector_settings(model_xml, parts, log=log, select_on=select_on)
     upd["selection"]["command"] = command
     upd["selection"]["time_s"] = round(time.perf_counter() - t0, 1)
     _update_json(model_xml, upd)
