@@ -460,6 +460,10 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--select-only", action="store_true",
                    help="do not train: choose the detector settings of the model at --out again on the "
                         "validation part of --data (its JSON is updated)")
+    p.add_argument("--select-on", choices=("mardct", "all"), default="mardct",
+                   help="validation images the detector settings are chosen on: mardct (the MarDCT "
+                        "validation frames only, the rule of session 11) or all (MarDCT, simulator and "
+                        "CORAL, session 10); the others are reported (mardct)")
 
 
 def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
@@ -514,9 +518,10 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
 
         if not Path(out).is_file():
             raise CLIError(f"--select-only: no model at {out}")
-        reselect_model(out, data, use_sim=not args.no_sim, seed=args.seed, command=command)
+        reselect_model(out, data, use_sim=not args.no_sim, seed=args.seed, command=command,
+                       select_on=args.select_on)
         return EXIT_OK
-    train_default_model(data, out, s, use_sim=not args.no_sim, command=command)
+    train_default_model(data, out, s, use_sim=not args.no_sim, command=command, select_on=args.select_on)
     return EXIT_OK
 
 
