@@ -386,6 +386,26 @@ class StableFeatureExtractor:
         keypoints are found, described and followed, and the results are scaled back to the
         source's pixels.  0: the source's size.  ``ransac_px`` and the ``subpixel_*`` sizes are
         in working-image pixels.
+    band_px, band_above_px, band_upscale, band_threshold, band_max_keypoints, band_grid_cells
+        The water-band pass (not in the paper), used when :meth:`process` is given the horizon:
+        the rows from ``band_above_px`` above the horizon to ``band_px`` below it (source
+        pixels) are searched for keypoints on a copy upscaled ``band_upscale`` times, with the
+        CenSurE response threshold ``band_threshold`` (lower than the image's), and described
+        on the band at the working resolution; the band has its own budget of
+        ``band_max_keypoints`` shared out over ``band_grid_cells`` (so that neither the sun
+        glint nor the image's coastline takes it).  The rest of the image is searched as
+        before.  Small far boats, which carry one or no keypoint otherwise, carry several.
+        ``band_px`` 0 turns it off.
+    scene_motion : bool
+        When the horizon is given, fit the camera motion to the stable features above it (sky,
+        coast) when there are enough of them, and to all stable features otherwise (not in the
+        paper, whose mean is over all stable features, boats included).
+    guided_px : float
+        Guided matching (not in the paper, whose FLANN search is over every active feature):
+        a keypoint is matched against the active features expected within ``guided_px`` plus
+        the velocity gate's reach (``gate_min_px_s`` times the frame interval) of it, so that
+        the ratio test compares a boat's keypoint with its neighbours rather than with every
+        similar blob in the image.  0: the paper's search.
     subpixel_win_px, subpixel_max_px, subpixel_min_eig : int, float, float
         Lucas-Kanade window, how far the refined position may lie from the keypoint, and the
         smallest eigenvalue of the window's gradient matrix (OpenCV's ``minEigThreshold``)
@@ -424,6 +444,14 @@ class StableFeatureExtractor:
         descriptor_scale: float = 1.0,
         descriptor_width_px: int = 320,
         homography_min_span: float = 0.4,
+        band_px: float = 100.0,
+        band_above_px: float = 6.0,
+        band_upscale: float = 2.0,
+        band_threshold: int = 5,
+        band_max_keypoints: int = 150,
+        band_grid_cells: tuple[int, int] = (16, 2),
+        scene_motion: bool = True,
+        guided_px: float = 10.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -461,6 +489,19 @@ class StableFeatureExtractor:
         self.descriptor_scale = float(descriptor_scale)
         self.descriptor_width_px = int(descriptor_width_px)
         self.homography_min_span = float(homography_min_span)
+        if band_upscale < 1 or band_px < 0 or band_above_px < 0:
+            raise ValueError("features: band_upscale must be >= 1, band_px and band_above_px >= 0")
+        self.band_px = float(band_px)
+        self.band_above_px = float(band_above_px)
+        self.band_upscale = float(band_upscale)
+        self.band_max_keypoints = int(band_max_keypoints)
+        self.band_grid_cells = (int(band_grid_cells[0]), int(band_grid_cells[1]))
+        self.scene_motion = bool(scene_motion)
+        self.guided_px = float(guided_px)
+        self._band_star = cv2.xfeatures2d.StarDetector_create(
+            int(star_max_size), int(band_threshold), int(star_line_threshold_projected),
+            int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
+        )
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
             int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
@@ -519,20 +560,37 @@ class StableFeatureExtractor:
         return int(self._alive.sum())
 
     # ---------------------------------------------------------------- helpers
-    def _keypoints(self, grey: np.ndarray):
+    def _keypoints(self, grey: np.ndarray, band: tuple[int, int] | None = None):
+        """Keypoints of the working image (positions, sizes, SIFT descriptors), with the rows
+        ``band = (y0, y1)`` searched by the water-band pass instead when given."""
         kps = self._star.detect(grey)
+        pred = None
+        act = np.flatnonzero(self._alive)
+        if self.prior_radius_px > 0 and len(act):
+            pred = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
+            pred = pred[np.isfinite(pred).all(axis=1)]
+            if not len(pred):
+                pred = None
+        if band is not None:
+            kps = [k for k in kps if not band[0] <= k.pt[1] < band[1]]
+        out = [self._describe_main(grey, kps, pred)]
+        if band is not None:
+            out.append(self._describe_band(grey, band, pred))
+        return (np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out]),
+                np.concatenate([o[2] for o in out]))
+
+    def _priority(self, xy: np.ndarray, pred: np.ndarray | None, budget: int) -> np.ndarray | None:
+        if pred is None or not (len(xy) > budget > 0):
+            return None
+        d, _ = cKDTree(pred).query(xy, k=1, distance_upper_bound=self.prior_radius_px)
+        return np.isfinite(d)
+
+    def _describe_main(self, grey: np.ndarray, kps, pred):
         if not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
         xy = np.array([k.pt for k in kps], np.float64)
         resp = np.array([k.response for k in kps], np.float64)
-        priority = None
-        act = np.flatnonzero(self._alive)
-        if self.prior_radius_px > 0 and len(act) and len(xy) > self.max_keypoints > 0:
-            pred = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
-            pred = pred[np.isfinite(pred).all(axis=1)]
-            if len(pred):
-                d, _ = cKDTree(pred).query(xy, k=1, distance_upper_bound=self.prior_radius_px)
-                priority = np.isfinite(d)
+        priority = self._priority(xy, pred, self.max_keypoints)
         keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
         # describe on a smaller copy when asked: SIFT's fixed cost (its Gaussian layers) and
         # its per-keypoint cost both scale with the pixels it reads
@@ -552,8 +610,47 @@ class StableFeatureExtractor:
         size = np.array([k.size for k in kps], np.float64) / sc
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
-    def _match(self, desc: np.ndarray, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(query index, active slot) of the matches passing the quality test, one per slot."""
+    def _describe_band(self, grey: np.ndarray, band: tuple[int, int], pred):
+        """The water-band pass: keypoints found on the band upscaled ``band_upscale`` times
+        with the lower threshold, described on the band at the working resolution."""
+        empty = np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
+        y0, y1 = band
+        up = self.band_upscale
+        crop = grey[y0:y1]
+        if crop.shape[0] < 4:
+            return empty
+        big = crop if up == 1 else cv2.resize(crop, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
+        kps = self._band_star.detect(big)
+        if not kps:
+            return empty
+        xy = (np.array([k.pt for k in kps], np.float64) + 0.5) / up - 0.5
+        xy[:, 1] += y0
+        size = np.array([k.size for k in kps], np.float64) / up
+        resp = np.array([k.response for k in kps], np.float64)
+        priority = self._priority(xy, pred, self.band_max_keypoints)
+        keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
+                                self.band_grid_cells, priority)
+        # describe on the band with some rows of context above and below
+        pad = 16
+        c0, c1 = max(0, y0 - pad), min(grey.shape[0], y1 + pad)
+        sc = self.descriptor_scale
+        dk = [cv2.KeyPoint(float(xy[i, 0]), float(xy[i, 1] - c0), float(size[i] * sc), -1, float(resp[i]))
+              for i in keep]
+        dk, desc = self._sift.compute(grey[c0:c1], dk)
+        if desc is None or not dk:
+            return empty
+        xy = np.array([k.pt for k in dk], np.float64) + [0.0, c0]
+        size = np.array([k.size for k in dk], np.float64) / sc
+        return xy, size, np.ascontiguousarray(desc, np.float32)
+
+    def _match(self, desc: np.ndarray, act: np.ndarray, kxy: np.ndarray | None = None,
+               radius_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """(query index, active slot) of the matches passing the quality test, one per slot.
+
+        With ``kxy`` and ``radius_px`` > 0 (guided matching), a keypoint's nearest and
+        second-nearest descriptors are sought among the active features expected (carried by
+        the previous camera motion) within ``radius_px`` of it; with one such candidate the
+        second distance is that to the nearest other active feature anywhere."""
         if len(act) < 2 or len(desc) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         # FLANN's linear index is exact and deterministic (the randomised kd-trees are neither,
@@ -562,6 +659,8 @@ class StableFeatureExtractor:
         index = cv2.flann_Index(self._desc[act], algo)
         nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
         nn = nn.astype(np.int64)
+        if kxy is not None and radius_px > 0:
+            nn, dist = self._guided(desc, act, kxy, radius_px, nn, dist)
         q = match_quality(dist[:, 0], dist[:, 1])
         ok = (q >= self.min_quality) & (nn[:, 0] >= 0)
         qi = np.flatnonzero(ok)
@@ -576,11 +675,49 @@ class StableFeatureExtractor:
         sel = srt[first]
         return qi[sel], act[ti[sel]]
 
-    def _camera_motion(self, src: np.ndarray, dst: np.ndarray, stable: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Homography of the camera motion from matched (src -> dst) positions."""
+    def _guided(self, desc, act, kxy, radius_px, nn_g, dist_g):
+        """Nearest and second-nearest (index into ``act``, squared distance) among the active
+        features expected within ``radius_px`` of each keypoint (see :meth:`_match`)."""
+        n = len(desc)
+        nn = np.full((n, 2), -1, np.int64)
+        dist = np.full((n, 2), np.inf, np.float32)
+        pred = _apply_h(self._h_prev, self._xy[act])
+        fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+        if len(fin) == 0:
+            return nn, dist
+        pairs = cKDTree(kxy).sparse_distance_matrix(cKDTree(pred[fin]), radius_px, output_type="ndarray")
+        if len(pairs) == 0:
+            return nn, dist
+        qi = pairs["i"].astype(np.int64)
+        ai = fin[pairs["j"].astype(np.int64)]
+        diff = desc[qi] - self._desc[act[ai]]
+        d2 = np.einsum("ij,ij->i", diff, diff)
+        srt = np.lexsort((d2, qi))
+        qs, as_, ds = qi[srt], ai[srt], d2[srt]
+        first = np.r_[True, qs[1:] != qs[:-1]]
+        fpos = np.flatnonzero(first)
+        nn[qs[fpos], 0] = as_[fpos]
+        dist[qs[fpos], 0] = ds[fpos]
+        second = fpos + 1
+        has2 = second < len(qs)
+        has2[has2] = qs[second[has2]] == qs[fpos[has2]]
+        nn[qs[fpos[has2]], 1] = as_[second[has2]]
+        dist[qs[fpos[has2]], 1] = ds[second[has2]]
+        # one candidate: the second distance is to the nearest other active feature anywhere
+        one = qs[fpos[~has2]]
+        other = np.where(nn_g[one, 0] == nn[one, 0], dist_g[one, 1], dist_g[one, 0])
+        dist[one, 1] = other
+        return nn, dist
+
+    def _camera_motion(self, src: np.ndarray, dst: np.ndarray, stable: np.ndarray,
+                       scene: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
+        """Homography of the camera motion from matched (src -> dst) positions; fitted to the
+        stable matches of the ``scene`` (above the horizon) when there are enough of them."""
         eye = np.eye(3)
         ok = bool(stable.sum() >= self.min_camera_matches)
         use = stable if ok else np.ones(len(src), bool)
+        if scene is not None and (stable & scene).sum() >= self.min_camera_matches:
+            use = stable & scene
         s, d = src[use], dst[use]
         if len(s) == 0:
             return eye, False
@@ -658,7 +795,8 @@ class StableFeatureExtractor:
         return out, ok
 
     # ----------------------------------------------------------------- main
-    def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None) -> FeatureSnapshot:
+    def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None,
+                horizon=None) -> FeatureSnapshot:
         """Detect, describe and match the features of one frame; update the active set.
 
         Parameters
@@ -666,6 +804,10 @@ class StableFeatureExtractor:
         image : (H, W, 3) BGR uint8, or (H, W) grey (uint8, uint16 or float for IR).
         t_s : float, time of the frame in seconds (increasing).
         frame_index : int, optional; defaults to the number of frames processed.
+        horizon : optional, the sea horizon in source pixels: anything with ``row_at(x)``
+            (:class:`seawatch.detect.horizon.Horizon`).  With it, the water band below it gets
+            its own keypoint pass (``band_*``) and the camera motion is fitted to the scene
+            above it first (``scene_motion``); None: the paper's single pass.
 
         Raises
         ------
@@ -690,9 +832,24 @@ class StableFeatureExtractor:
             dt = float(t_s - self._t_prev)
         self._t_prev = float(t_s)
 
-        kxy, ksize, kdesc = self._keypoints(grey)
+        band = None
+        line = None
+        if horizon is not None:
+            ends = np.asarray(horizon.row_at(np.array([0.0, w_px - 1.0])), np.float64)
+            if np.all(np.isfinite(ends)):
+                line = ends * self._scale  # working-image rows at columns 0 and W-1
+                if self.band_px > 0:
+                    y0 = int(np.floor((ends.min() - self.band_above_px) * self._scale))
+                    y1 = int(np.ceil((ends.max() + self.band_px) * self._scale))
+                    y0, y1 = max(0, y0), min(grey.shape[0], y1)
+                    if y1 - y0 >= 4:
+                        band = (y0, y1)
+        kxy, ksize, kdesc = self._keypoints(grey, band)
         act = np.flatnonzero(self._alive)
-        qi, si = self._match(kdesc, act)
+        radius = 0.0
+        if self.guided_px > 0:
+            radius = self.guided_px * self._scale + self.gate_min_px_s * self._scale * dt
+        qi, si = self._match(kdesc, act, kxy, radius)
         h = np.eye(3)
         motion_ok = False
         jumped = np.zeros(len(qi), bool)
@@ -703,7 +860,11 @@ class StableFeatureExtractor:
             src = self._xy[si]
             dst = kxy[qi]
             stable = self._conf[si] >= self.stable_confidence
-            h, motion_ok = self._camera_motion(src, dst, stable)
+            scene = None
+            if line is not None and self.scene_motion:
+                wk = max(grey.shape[1] - 1, 1)
+                scene = src[:, 1] < line[0] + (line[1] - line[0]) * src[:, 0] / wk - 1.0
+            h, motion_ok = self._camera_motion(src, dst, stable, scene)
             # gate: velocity relative to the camera against the stable features' statistics
             res = (dst - _apply_h(h, src)) / dt
             ref = res[stable] if stable.sum() >= 2 else res

@@ -52,7 +52,7 @@ NO_COMMON_FRAME = 1000.0  # dissimilarity of two features that were never seen i
 
 
 def motion_dissimilarity(
-    va: np.ndarray, vb: np.ndarray, p_px: float = 3.0, frame_interval_s: float = 0.04
+    va: np.ndarray, vb: np.ndarray, p_px: float = 3.0, frame_interval_s: float = 0.04, angle: bool = True,
 ) -> np.ndarray:
     """Motion dissimilarity of pairs of feature tracks.
 
@@ -66,6 +66,9 @@ def motion_dissimilarity(
     frame_interval_s : float
         The frame interval that the magnitudes ``m`` are expressed in (paper: per frame; 0.04 s,
         i.e. 25 frames/s), so the result does not depend on the frame rate.
+    angle : bool
+        Include the angle term (the paper); False gives ``Lambda`` alone (for two features that
+        do not move relative to the scene, whose directions are noise).
 
     Returns
     -------
@@ -90,7 +93,7 @@ def motion_dissimilarity(
         sig = 1.0 / (1.0 + np.exp(p_px - fast))
         lam = np.where(fast > 0, sig * (1.0 - slow / fast), 0.0)
     nn = np.maximum(n, 1)
-    theta = np.where(both, ang, 0.0).sum(axis=-1) / nn
+    theta = np.where(both, ang, 0.0).sum(axis=-1) / nn if angle else 0.0
     lam_m = np.where(both, lam, 0.0).sum(axis=-1) / nn
     d = np.sqrt(theta**2 + lam_m**2)
     return np.where(n > 0, d, NO_COMMON_FRAME)
@@ -98,7 +101,8 @@ def motion_dissimilarity(
 
 def frame_edges(
     xy: np.ndarray, history: np.ndarray, dmax: float, radius_px: float, p_px: float = 3.0,
-    frame_interval_s: float = 0.04, min_speed_px_s: float = 0.0,
+    frame_interval_s: float = 0.04, min_speed_px_s: float = 0.0, still_ok: np.ndarray | None = None,
+    still_radius_px: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Edges of one frame's graph: pairs closer than ``radius_px`` with ``D < dmax``.
 
@@ -111,6 +115,15 @@ def frame_edges(
         of a feature that does not move relative to the scene is noise, and a small bias of the
         camera-motion estimate would otherwise line up the directions of neighbouring static
         features).
+    still_ok : (N,) bool, optional
+        Features that may be joined as *still objects* (not in the paper): stable features on
+        the water that were never seen moving faster than ``min_speed_px_s``.  Two of them closer
+        than ``still_radius_px`` form an edge when their magnitude term ``Lambda`` alone is
+        below ``dmax`` (the angle between two velocities that are noise means nothing); a moving
+        feature is never joined to a still one this way, so the motion still splits a moving boat
+        from a still neighbour.  Water does not keep a stable feature (its texture changes), so
+        a cluster of stable features on the water is an object even when it moves with the
+        camera.
 
     Returns
     -------
@@ -118,21 +131,34 @@ def frame_edges(
     d : (E,) their dissimilarities.
     """
     z = np.zeros(0, np.int64)
+    raw = history
     idx = np.arange(len(xy))
     if min_speed_px_s > 0 and len(xy):
         with np.errstate(invalid="ignore"):
             slow = np.hypot(history[..., 0], history[..., 1]) < min_speed_px_s
         history = np.where(slow[..., None], np.nan, history)
         idx = np.flatnonzero(np.isfinite(history[..., 0]).any(axis=1))  # features seen moving
-    if len(idx) < 2:
-        return z, z, np.zeros(0)
-    pairs = cKDTree(xy[idx]).query_pairs(r=float(radius_px), output_type="ndarray")
-    if len(pairs) == 0:
-        return z, z, np.zeros(0)
-    i, j = idx[pairs[:, 0]], idx[pairs[:, 1]]
-    d = motion_dissimilarity(history[i], history[j], p_px, frame_interval_s)
-    keep = d < dmax
-    return i[keep], j[keep], d[keep]
+    out_i, out_j, out_d = [z], [z], [np.zeros(0)]
+    if len(idx) >= 2:
+        pairs = cKDTree(xy[idx]).query_pairs(r=float(radius_px), output_type="ndarray")
+        if len(pairs):
+            i, j = idx[pairs[:, 0]], idx[pairs[:, 1]]
+            d = motion_dissimilarity(history[i], history[j], p_px, frame_interval_s)
+            keep = d < dmax
+            out_i.append(i[keep]), out_j.append(j[keep]), out_d.append(d[keep])
+    if still_ok is not None and still_radius_px > 0:
+        moving = np.zeros(len(xy), bool)
+        moving[idx] = True
+        sidx = np.flatnonzero(np.asarray(still_ok, bool) & ~moving & np.isfinite(raw[..., 0]).any(axis=1))
+        if len(sidx) >= 2:
+            pairs = cKDTree(xy[sidx]).query_pairs(r=float(still_radius_px), output_type="ndarray")
+            if len(pairs):
+                i, j = sidx[pairs[:, 0]], sidx[pairs[:, 1]]
+                d = motion_dissimilarity(raw[i], raw[j], p_px, frame_interval_s, angle=False)
+                keep = d < dmax
+                out_i.append(i[keep]), out_j.append(j[keep]), out_d.append(d[keep])
+    i, j, d = np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_d)
+    return np.minimum(i, j), np.maximum(i, j), d
 
 
 def assign_identities(
@@ -516,6 +542,8 @@ class ClusterParams:
     relink_px: float = 20.0
     min_contrast: float = 4.0
     merge_overlap: float = 0.5
+    still_radius_px: float = 15.0
+    water_margin_px: float = 2.0
 
 
 class FeatureClusterer:
@@ -629,19 +657,26 @@ class FeatureClusterer:
             return p.min_speed_px_s
         return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
 
-    def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None) -> tuple[Detections, Tracks]:
+    def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
+               horizon=None) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
 
         ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
         box to the object around its features (:func:`grow_boxes`); without it the boxes are
-        the features' extent."""
+        the features' extent.  ``horizon`` (anything with ``row_at(x)``, in the snapshot's
+        pixels) marks the water, below it: with ``params.still_radius_px`` > 0, still stable
+        features there are clustered too (see :func:`frame_edges`)."""
         p = self.params
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
             self.noise_px_s = nz if not np.isfinite(self.noise_px_s) else 0.9 * self.noise_px_s + 0.1 * nz
         st = np.flatnonzero(snap.stable)
+        still = None
+        if horizon is not None and p.still_radius_px > 0 and len(st):
+            row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
+            still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
-                                self.min_speed_px_s)
+                                self.min_speed_px_s, still, p.still_radius_px)
         # indices into the snapshot
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
         self.last_labels = labels
@@ -742,19 +777,57 @@ class StableFeatureTracker:
     name = "stable_features"
 
     def __init__(self, extractor: StableFeatureExtractor | None = None,
-                 params: ClusterParams | None = None, report_tentative: bool = False) -> None:
+                 params: ClusterParams | None = None, report_tentative: bool = False,
+                 camera=None, horizon: str = "camera", horizon_every_s: float = 0.5) -> None:
+        if horizon not in ("auto", "camera", "detect", "off"):
+            raise ValueError(f"stable_features: horizon must be auto, camera, detect or off, not {horizon!r}")
         self.extractor = extractor or StableFeatureExtractor()
         self.clusterer = FeatureClusterer(params)
         self.report_tentative = bool(report_tentative)
         self.last_snapshot: FeatureSnapshot | None = None
+        self.camera = camera
+        self.horizon_mode = horizon
+        self.horizon_every_s = float(horizon_every_s)
+        self.last_horizon = None
+        self._horizon_tracker = None
+
+    def _horizon(self, frame: Frame):
+        """The sea horizon of this frame: from the camera model at the frame's PTZ state (or
+        pose) when the stage has a camera, otherwise from the image (paper A's detector,
+        :class:`seawatch.detect.horizon.HorizonTracker`); None when off or not found."""
+        from seawatch.detect.horizon import Horizon, HorizonTracker
+
+        mode = self.horizon_mode
+        if mode == "off":
+            return None
+        cam = self.camera
+        if cam is not None and mode in ("auto", "camera"):
+            if frame.ptz is not None:
+                cam = cam.with_ptz(frame.ptz)
+            elif frame.pose is not None:
+                cam = cam.with_pose(pan_deg=frame.pose.pan_deg, tilt_deg=frame.pose.tilt_deg,
+                                    roll_deg=frame.pose.roll_deg)
+            h, w = frame.shape
+            sx = w / float(cam.intrinsics.width)  # a camera model of another resolution
+            ends = np.asarray(cam.horizon_row(np.array([0.0, cam.intrinsics.width - 1.0])), np.float64) * sx
+            if np.all(np.isfinite(ends)):
+                return Horizon(float(ends[0]), float(ends[1]), int(w), kind="sky")
+            return None
+        if mode == "camera":
+            return None
+        if self._horizon_tracker is None:
+            self._horizon_tracker = HorizonTracker(every_s=self.horizon_every_s)
+        from seawatch.types import Modality
+
+        return self._horizon_tracker.update(frame.image, frame.t_s, ir=frame.modality == Modality.IR)
 
     @classmethod
     def from_config(cls, config, *, fps: float | None = None, camera=None) -> "StableFeatureTracker":
         """Build from a :class:`seawatch.config.Config` (the ``sf_*`` fields of ``[tracker]``)."""
-        return cls.from_settings(config.tracker, fps=fps)
+        return cls.from_settings(config.tracker, fps=fps, camera=camera)
 
     @classmethod
-    def from_settings(cls, settings, fps: float | None = None) -> "StableFeatureTracker":
+    def from_settings(cls, settings, fps: float | None = None, camera=None) -> "StableFeatureTracker":
         """Build from :class:`seawatch.config.TrackerSettings` (its ``sf_*`` fields)."""
         ext = StableFeatureExtractor(
             max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)),
@@ -767,11 +840,13 @@ class StableFeatureTracker:
             radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
             min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 1.5)),
         )
-        return cls(ext, params)
+        return cls(ext, params, camera=camera)
 
     def reset(self) -> None:
         self.extractor.reset()
         self.clusterer.reset()
+        if self._horizon_tracker is not None:
+            self._horizon_tracker.reset()
 
     def process(self, frame: Frame) -> tuple[Detections, Tracks]:
         """Detect and track in one frame.
@@ -782,12 +857,14 @@ class StableFeatureTracker:
             When the frame's image is not an image (the message names the frame).
         """
         try:
-            snap = self.extractor.process(frame.image, frame.t_s, frame.index)
+            hz = self._horizon(frame)
+            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz)
         except ValueError as exc:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
         self.last_snapshot = snap
+        self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
-        dets, tracks = self.clusterer.update(snap, frame.image)
+        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
