@@ -452,6 +452,8 @@ class StableFeatureExtractor:
         band_grid_cells: tuple[int, int] = (16, 2),
         scene_motion: bool = True,
         guided_px: float = 10.0,
+        band_describe_upscaled: bool = False,
+        band_min_size_px: float = 0.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -498,6 +500,8 @@ class StableFeatureExtractor:
         self.band_grid_cells = (int(band_grid_cells[0]), int(band_grid_cells[1]))
         self.scene_motion = bool(scene_motion)
         self.guided_px = float(guided_px)
+        self.band_describe_upscaled = bool(band_describe_upscaled)
+        self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(band_threshold), int(star_line_threshold_projected),
             int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
@@ -630,17 +634,23 @@ class StableFeatureExtractor:
         priority = self._priority(xy, pred, self.band_max_keypoints)
         keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
                                 self.band_grid_cells, priority)
-        # describe on the band with some rows of context above and below
+        # describe with some rows of context above and below, on the band at the working
+        # resolution or upscaled (``band_describe_upscaled``)
         pad = 16
         c0, c1 = max(0, y0 - pad), min(grey.shape[0], y1 + pad)
         sc = self.descriptor_scale
-        dk = [cv2.KeyPoint(float(xy[i, 0]), float(xy[i, 1] - c0), float(size[i] * sc), -1, float(resp[i]))
-              for i in keep]
-        dk, desc = self._sift.compute(grey[c0:c1], dk)
+        f = up if self.band_describe_upscaled else 1.0
+        img = grey[c0:c1]
+        if f != 1.0:
+            img = cv2.resize(img, None, fx=f, fy=f, interpolation=cv2.INTER_LINEAR)
+        dsz = np.maximum(size * sc, self.band_min_size_px) * f
+        dk = [cv2.KeyPoint(float((xy[i, 0] + 0.5) * f - 0.5), float((xy[i, 1] - c0 + 0.5) * f - 0.5),
+                           float(dsz[i]), -1, float(resp[i])) for i in keep]
+        dk, desc = self._sift.compute(img, dk)
         if desc is None or not dk:
             return empty
-        xy = np.array([k.pt for k in dk], np.float64) + [0.0, c0]
-        size = np.array([k.size for k in dk], np.float64) / sc
+        xy = (np.array([k.pt for k in dk], np.float64) + 0.5) / f - 0.5 + [0.0, c0]
+        size = np.array([k.size for k in dk], np.float64) / (sc * f)
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
     def _match(self, desc: np.ndarray, act: np.ndarray, kxy: np.ndarray | None = None,
