@@ -33,7 +33,14 @@ import cv2
 import numpy as np
 
 from seawatch.camera import CameraModel
-from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, first_water_rows, sea_waves_grid
+from seawatch.sim._kernels import (
+    blend_foam,
+    blend_reflection,
+    fill_polys,
+    first_water_rows,
+    sea_waves_grid,
+    sea_waves_rows,
+)
 from seawatch.sim.texture import (
     CoastSpec,
     Panorama,
@@ -78,6 +85,12 @@ class RenderOptions:
         Amplitude (grey levels) of the IR column fixed-pattern noise.
     vessel_motion : bool
         Let vessels heave, roll and pitch in the waves.
+    sea_half_res : bool or None
+        Render the wave shading of the water below the horizon/coast band at half resolution
+        (upsampled bilinearly; the sun glints stay at full resolution): the wave field there is
+        smooth at the pixel scale, and a moving camera must re-render it every frame.  None
+        chooses it for cameras that pan, tilt or zoom (not for fixed ones, whose animated sea is
+        cached, nor for swaying ones, which render from panoramas).
     """
 
     ir: bool = False
@@ -93,6 +106,7 @@ class RenderOptions:
     ir_halo: float = 0.6
     ir_fixed_pattern: float = 1.0
     vessel_motion: bool = True
+    sea_half_res: bool | None = None
 
 
 @dataclass
@@ -158,7 +172,8 @@ class _PanoLevel:
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache")
+    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache",
+                 "half_y0", "lo_half", "lo_k0")
 
 
 class Renderer:
@@ -246,12 +261,18 @@ class Renderer:
             sky=sky, coasts=tuple(coasts), ppd_hi=ppd_hi, ppd_lo=min(8.0, ppd_hi), ir=options.ir,
             seed=self.seed + 101,
         )
+        # colour panoramas resampled as 4 channels (OpenCV's remap has a fast path for 4, not 3;
+        # the pixels are the same to the last bit), converted back with cvtColor
+        self._lo_src = _bgra(self.pano.lo)
+        self._hi_src = _bgra(self.pano.hi)
         wt = self.pano.water_top_deg
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
         self.waves = wave_field or WaveField(seed=self.seed + 7)
         self.world_to_camera = None if world_to_camera is None else np.asarray(world_to_camera, float)
         span = max(pr[1] - pr[0], tr[1] - tr[0])
         self.use_panorama = bool(0.0 < span <= _PANO_MAX_SPAN_DEG) if panorama is None else bool(panorama)
+        hr = options.sea_half_res
+        self.sea_half_res = bool(span > 0.0 and not self.use_panorama) if hr is None else bool(hr)
         self._levels: dict[int, _PanoLevel] = {}
         self._lo_skip_band = True  # skip the coarse layer where the sharp band covers whole rows
         self._views: OrderedDict[tuple, _View] = OrderedDict()
@@ -386,16 +407,22 @@ class Renderer:
         # band covers entirely are skipped)
         bg = np.empty((H, W, self.C), np.uint8)
         mlo = up(s // 2, (-(-H // 2), -(-W // 2)), (lox, loy))
+        # half-resolution sea: rows from ys down are all water (below the band); their coarse
+        # layer is kept at half resolution for the wave shading
+        ys = min(H, b1 + (b1 & 1)) if (self.sea_half_res and self.options.waves and r0_ < H) else H
+        view.half_y0, view.lo_half, view.lo_k0 = H, None, 0
         for y0, y1 in ((0, c0), (c1, H)) if c1 > c0 and self._lo_skip_band else ((0, H),):
-            if y1 > y0:
+            if y1 > max(y0, ys):
+                if y0 < ys:
+                    self._lo_rows(bg, mlo, y0, ys)
+                ya = max(y0, ys)
+                lo, k0 = self._lo_half(mlo, ya, y1)
+                bg[ya:y1] = 0  # filled with the waves, every frame (:meth:`_sea_half`)
+                view.half_y0, view.lo_half, view.lo_k0 = ya, lo, k0
+            elif y1 > y0:
                 self._lo_rows(bg, mlo, y0, y1)
         if band_maps is not None:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
-            dst = bg[b0:b1]
-            dst2 = dst.reshape(b1 - b0, W) if self.C == 1 else dst
-            res = cv2.remap(pano.hi, band_maps, None, cv2.INTER_LINEAR, dst=dst2,
-                            borderMode=cv2.BORDER_TRANSPARENT)
-            if not np.shares_memory(res, dst):  # (OpenCV wrote into a new array)
-                dst[...] = res.reshape(dst.shape)
+            _remap_into(bg[b0:b1], self._hi_src, band_maps)
         view.bg = bg
         view.hi_map = hi_map
         view.hi_r0 = m0
@@ -413,11 +440,21 @@ class Renderer:
         """Rows ``y0 .. y1`` of the coarse layer into ``bg``: ``pano.lo`` resampled through the
         half-resolution maps ``mlo`` and upscaled twice (the same pixels as doing it for the whole
         image: one half-resolution row of margin on each side feeds the interpolation)."""
+        lo, k0 = self._lo_half(mlo, y0, y1)
+        self._lo_up(bg, lo, k0, mlo.shape[1], y0, y1)
+
+    def _lo_half(self, mlo: np.ndarray, y0: int, y1: int):
+        """The half-resolution coarse layer that feeds rows ``y0 .. y1``: ``(lo, k0)``, ``lo`` holding
+        half-resolution rows ``k0 ..`` (shape ``(k1 - k0, W / 2, C)``)."""
         hh = mlo.shape[0]
         k0, k1 = max(0, y0 // 2 - 1), min(hh, (y1 + 1) // 2 + 1)
-        lo = cv2.remap(self.pano.lo, np.ascontiguousarray(mlo[k0:k1]), None, cv2.INTER_LINEAR,
+        lo = cv2.remap(self._lo_src, np.ascontiguousarray(mlo[k0:k1]), None, cv2.INTER_LINEAR,
                        borderMode=cv2.BORDER_REPLICATE)
-        big = cv2.resize(lo, (2 * mlo.shape[1], 2 * (k1 - k0)), interpolation=cv2.INTER_LINEAR)
+        return _from_bgra(lo, self.C).reshape(k1 - k0, mlo.shape[1], self.C), k0
+
+    def _lo_up(self, bg: np.ndarray, lo: np.ndarray, k0: int, wh: int, y0: int, y1: int) -> None:
+        """Rows ``y0 .. y1`` of ``bg`` from half-resolution rows ``k0 ..`` (``lo``), upscaled twice."""
+        big = cv2.resize(lo, (2 * wh, 2 * lo.shape[0]), interpolation=cv2.INTER_LINEAR)
         bg[y0:y1] = big[y0 - 2 * k0:y1 - 2 * k0, :self.W].reshape(y1 - y0, self.W, self.C)
 
     # ------------------------------------------------------- swaying cameras: panoramas
@@ -610,13 +647,33 @@ class Renderer:
                 img[r0:] = hit
                 return img
         img = view.bg.copy()
-        sea_waves_grid(img, r0, view.sea_grid, _GRID_PX, self.waves.frame(t_s), self._gain, self._glint_col,
-                       view.hi_map, view.hi_r0, self._water_top_y)
+        tile = self.waves.frame(t_s)
+        ys = view.half_y0
+        if r0 < ys:  # full resolution down to the half-resolution rows
+            sea_waves_grid(img[:ys], r0, view.sea_grid, _GRID_PX, tile, self._gain, self._glint_col,
+                           view.hi_map, view.hi_r0, self._water_top_y)
+        if view.lo_half is not None:
+            self._sea_half(img, view, tile)
         nb = img[r0:].nbytes
         if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
             cache[fi] = img[r0:].copy()
             self._cache_bytes += nb
         return img
+
+    def _sea_half(self, img: np.ndarray, view: _View, tile: np.ndarray) -> None:
+        """Rows ``view.half_y0 ..`` (all water): the coarse layer upscaled along the columns, waves
+        and glints at half the horizontal resolution, then upscaled along the rows.  The sea's
+        texture is magnified along the rows (a pixel spans a few centimetres to decimetres across,
+        against metres in depth), so its detail survives; the columns keep full resolution."""
+        H, W, C = self.H, self.W, self.C
+        lo, k0 = view.lo_half, view.lo_k0
+        ys = view.half_y0
+        wh = lo.shape[1]
+        tall = cv2.resize(lo, (wh, 2 * lo.shape[0]), interpolation=cv2.INTER_LINEAR).reshape(-1, wh, C)
+        rows = tall[ys - 2 * k0:H - 2 * k0]
+        sea_waves_rows(rows, ys, view.sea_grid, float(_GRID_PX), _GRID_PX / 2.0, tile, self._gain, self._glint_col)
+        wide = cv2.resize(rows, (2 * wh, H - ys), interpolation=cv2.INTER_LINEAR)
+        img[ys:H] = wide[:, :W].reshape(H - ys, W, C)
 
     def render(self, t_s: float, cam: CameraModel, frame_seed: int = 0, draw_vessels: bool = True) -> RenderResult:
         """Render the world at time ``t_s`` through ``cam``.
@@ -928,6 +985,30 @@ class Renderer:
             ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, int(o.jpeg_quality)])
             img = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
         return np.ascontiguousarray(img)
+
+
+def _bgra(img: np.ndarray) -> np.ndarray:
+    """A colour image as BGRA (one-channel images unchanged)."""
+    return cv2.cvtColor(img, cv2.COLOR_BGR2BGRA) if img.ndim == 3 and img.shape[2] == 3 else img
+
+
+def _from_bgra(img: np.ndarray, c: int) -> np.ndarray:
+    return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR) if c == 3 else img
+
+
+def _remap_into(dst: np.ndarray, src: np.ndarray, maps: np.ndarray) -> None:
+    """``cv2.remap`` of ``src`` (BGRA or one channel) into the C-contiguous rows ``dst`` (H, W, C)
+    with ``BORDER_TRANSPARENT``: pixels that map outside ``src`` keep their value."""
+    h, w, c = dst.shape
+    if c == 3:
+        d4 = cv2.cvtColor(dst, cv2.COLOR_BGR2BGRA)
+        cv2.remap(src, maps, None, cv2.INTER_LINEAR, dst=d4, borderMode=cv2.BORDER_TRANSPARENT)
+        cv2.cvtColor(d4, cv2.COLOR_BGRA2BGR, dst=dst)
+        return
+    d2 = dst.reshape(h, w)
+    res = cv2.remap(src, maps, None, cv2.INTER_LINEAR, dst=d2, borderMode=cv2.BORDER_TRANSPARENT)
+    if not np.shares_memory(res, d2):  # (OpenCV wrote into a new array)
+        d2[...] = res
 
 
 _WAKE_TAU = np.array([0.0, 1.0, 2.5, 4.5, 7.0, 10.0, 14.0])
