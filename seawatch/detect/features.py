@@ -454,6 +454,7 @@ class StableFeatureExtractor:
         guided_px: float = 10.0,
         band_describe_upscaled: bool = False,
         band_min_size_px: float = 0.0,
+        guided_min_quality: float = 0.4,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -500,6 +501,7 @@ class StableFeatureExtractor:
         self.band_grid_cells = (int(band_grid_cells[0]), int(band_grid_cells[1]))
         self.scene_motion = bool(scene_motion)
         self.guided_px = float(guided_px)
+        self.guided_min_quality = float(guided_min_quality)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -669,10 +671,12 @@ class StableFeatureExtractor:
         index = cv2.flann_Index(self._desc[act], algo)
         nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
         nn = nn.astype(np.int64)
+        min_q = self.min_quality
         if kxy is not None and radius_px > 0:
             nn, dist = self._guided(desc, act, kxy, radius_px, nn, dist)
+            min_q = self.guided_min_quality
         q = match_quality(dist[:, 0], dist[:, 1])
-        ok = (q >= self.min_quality) & (nn[:, 0] >= 0)
+        ok = (q >= min_q) & (nn[:, 0] >= 0)
         qi = np.flatnonzero(ok)
         if len(qi) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)

@@ -543,6 +543,7 @@ class ClusterParams:
     min_contrast: float = 4.0
     merge_overlap: float = 0.5
     still_radius_px: float = 15.0
+    relink_predict: bool = True
     water_margin_px: float = 2.0
 
 
@@ -583,6 +584,7 @@ class FeatureClusterer:
         self._known: dict[int, float] = {}  # cluster identity -> last time seen
         self._lost: dict[int, tuple[float, np.ndarray]] = {}  # reported identity -> (time lost, box)
         self._prev_boxes: dict[int, np.ndarray] = {}  # reported identity -> last box
+        self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
 
     def reset(self) -> None:
@@ -590,25 +592,31 @@ class FeatureClusterer:
         self.noise_px_s = float("nan")
         self._relink_reset()
 
-    def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
+                vel: np.ndarray | None = None) -> np.ndarray:
         """Reported identities of this frame's clusters: a cluster born within ``relink_s`` of
         the loss of a reported identity, where that identity's last box (carried by the
-        camera's motion) lies within ``relink_px`` (or overlaps), takes that identity (not in
-        the paper: a boat whose features all drop out for a moment keeps its identity)."""
+        camera's motion and, with ``relink_predict``, by the object's own last velocity
+        relative to the scene) lies within ``relink_px`` (or overlaps), takes that identity
+        (not in the paper: a boat whose features all drop out for a moment keeps its identity)."""
         p = self.params
         t = snap.t_s
+        dt = float(getattr(snap, "dt_s", p.frame_interval_s))
         h = np.asarray(snap.homography, np.float64)
         sc = float(np.sqrt(abs(np.linalg.det(h[:2, :2])))) if np.all(np.isfinite(h)) else 1.0
 
-        def carry(b):
+        def carry(b, v=None):
             c = np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3], 1.0])
             q = h @ c
             if not np.all(np.isfinite(q)) or abs(q[2]) < 1e-12:
                 return b
             w, hh = b[2] * sc, b[3] * sc
-            return np.array([q[0] / q[2] - 0.5 * w, q[1] / q[2] - 0.5 * hh, w, hh])
+            out = np.array([q[0] / q[2] - 0.5 * w, q[1] / q[2] - 0.5 * hh, w, hh])
+            if v is not None and p.relink_predict:
+                out[:2] += v * dt
+            return out
 
-        self._lost = {k: (tl, carry(b)) for k, (tl, b) in self._lost.items() if t - tl <= p.relink_s}
+        self._lost = {k: (tl, carry(b, v), v) for k, (tl, b, v) in self._lost.items() if t - tl <= p.relink_s}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
@@ -643,10 +651,23 @@ class FeatureClusterer:
             self._known = {k: tk for k, tk in self._known.items() if t - tk <= memory_s}
             self._alias = {k: v for k, v in self._alias.items() if k in self._known}
         now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
+        own = {}
+        if vel is not None and len(rep):
+            # the object's own velocity: its image velocity less the camera's at its centre
+            c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
+            try:
+                hinv = np.linalg.inv(h)
+                back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
+                back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
+                cam = (c - back) / max(dt, 1e-6)
+                own = {int(r): np.nan_to_num(vel[i] - cam[i]) for i, r in enumerate(rep)}
+            except np.linalg.LinAlgError:
+                own = {}
         for k, b in self._prev_boxes.items():
             if k not in now:
-                self._lost[k] = (t, carry(b))
+                self._lost[k] = (t, carry(b, self._prev_vel.get(k)), self._prev_vel.get(k))
         self._prev_boxes = now
+        self._prev_vel = own
         return rep
 
     @property
@@ -738,7 +759,7 @@ class FeatureClusterer:
         if p.merge_overlap > 0 and len(cids) > 1:
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap)
         if p.relink_s > 0:
-            ids = self._relink(snap, cids, boxes)
+            ids = self._relink(snap, cids, boxes, vel)
             for r in ids:
                 self._birth.setdefault(int(r), t)
             births = np.array([self._birth[int(r)] for r in ids])
