@@ -328,84 +328,47 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_waves_rows(out, y_off, grid, step_y, step_x, tile, gain, glint_col):
-    """:func:`sea_waves_grid` on rows that are all water, with different grid steps along the
-    rows and the columns: ``out`` holds image rows ``y_off ..`` at ``step_x / step_y`` of the
-    image's horizontal resolution (grid sample ``(i, j)`` at ``((j - 0.5) * step_x - 0.5,
-    (i - 0.5) * step_y - 0.5)`` in ``out``'s pixels, rows counted from image row 0).
+def wrap_coords(params, period, out):
+    """``out[..., :2] = params[..., :2] mod period`` (float32; ``out`` (n, w, 2) C-contiguous):
+    texture coordinates of a periodic tile brought into ``[0, period)`` for ``cv2.remap``."""
+    n, w = out.shape[0], out.shape[1]
+    p = np.float32(period)
+    ip = np.float32(1.0 / period)
+    for y in range(n):
+        for x in range(w):
+            for k in range(2):
+                v = params[y, x, k]
+                out[y, x, k] = v - p * np.floor(v * ip)
 
-    With ``step_x`` half the grid step, ``out``'s pixels sample the wave field at the centres of
-    pairs of image pixels along the row (the sea's texture is magnified along the rows and
-    foreshortened along the columns, so the columns keep their full resolution).
-    """
-    h = out.shape[0]
-    w = out.shape[1]
-    c = out.shape[2]
-    gw = grid.shape[1]
-    m = tile.shape[0] - 1
-    one = np.float32(1.0)
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def sea_shade_sampled(out, tex, params, gain, glint_col):
+    """Add wave shading and sun glints to ``out`` (n, w, C) uint8, all water, from the wave
+    texture already sampled at every pixel: ``tex`` (n, w, >= 2) uint8 (shade, glint) and
+    ``params`` (n, w, 4) float32 (texture x, y, wave contrast, glint strength): the arithmetic of
+    :func:`sea_waves_grid` without its texture look-ups (an element-wise pass)."""
+    n, w, c = out.shape
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
     zero = np.float32(0.0)
     c255 = np.float32(255.0)
-    jx = np.empty(w, np.int64)
-    wx = np.empty(w, np.float32)
-    for x in range(w):
-        f = (x + 0.5) / step_x + 0.5
-        jx[x] = int(f)
-        wx[x] = f - int(f)
-    row = np.empty((gw, 4), np.float32)
-    drow = np.empty((gw, 4), np.float32)
     g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
     l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
-    for yy in range(h):
-        f = (y_off + yy + 0.5) / step_y + 0.5
-        i = int(f)
-        a = np.float32(f - i)
-        for j in range(gw):
-            for k in range(4):
-                row[j, k] = grid[i, j, k] + a * (grid[i + 1, j, k] - grid[i, j, k])
-        for j in range(gw - 1):
-            for k in range(4):
-                drow[j, k] = row[j + 1, k] - row[j, k]
+    for y in range(n):
         for x in range(w):
-            j = jx[x]
-            b = wx[x]
-            am = row[j, 2] + b * drow[j, 2]
-            g = row[j, 3] + b * drow[j, 3]
-            if am < 0.004 and g < 0.004:  # invisible (< 1 grey level)
-                continue
-            fx = row[j, 0] + b * drow[j, 0]
-            fy = row[j, 1] + b * drow[j, 1]
-            ix = int(np.floor(fx))
-            iy = int(np.floor(fy))
-            ax = fx - np.float32(ix)
-            ay = fy - np.float32(iy)
-            x0 = ix & m
-            x1 = (ix + 1) & m
-            y0 = iy & m
-            y1 = (iy + 1) & m
-            w00 = (one - ax) * (one - ay)
-            w01 = ax * (one - ay)
-            w10 = (one - ax) * ay
-            w11 = ax * ay
-            s = (w00 * np.float32(tile[y0, x0, 0]) + w01 * np.float32(tile[y0, x1, 0])
-                 + w10 * np.float32(tile[y1, x0, 0]) + w11 * np.float32(tile[y1, x1, 0]))
-            d = (s - c128) * am
-            gg = np.float32(0.0)
-            if g > 0.0:
-                gl = (w00 * np.float32(tile[y0, x0, 1]) + w01 * np.float32(tile[y0, x1, 1])
-                      + w10 * np.float32(tile[y1, x0, 1]) + w11 * np.float32(tile[y1, x1, 1]))
-                gg = gl * g * inv
+            am = params[y, x, 2]
+            g = max(params[y, x, 3], zero) * inv
+            d = (np.float32(tex[y, x, 0]) - c128) * am
+            gg = np.float32(tex[y, x, 1]) * g
             if c == 3:
-                v0 = np.float32(out[yy, x, 0]) + d * g0 + gg * l0 + half
-                v1 = np.float32(out[yy, x, 1]) + d * g1 + gg * l1 + half
-                v2 = np.float32(out[yy, x, 2]) + d * g2 + gg * l2 + half
-                out[yy, x, 0] = np.uint8(min(max(v0, zero), c255))
-                out[yy, x, 1] = np.uint8(min(max(v1, zero), c255))
-                out[yy, x, 2] = np.uint8(min(max(v2, zero), c255))
-                continue
-            for k in range(c):
-                v = np.float32(out[yy, x, k]) + d * gain[k] + gg * glint_col[k] + half
-                out[yy, x, k] = np.uint8(min(max(v, zero), c255))
+                v0 = np.float32(out[y, x, 0]) + d * g0 + gg * l0 + half
+                v1 = np.float32(out[y, x, 1]) + d * g1 + gg * l1 + half
+                v2 = np.float32(out[y, x, 2]) + d * g2 + gg * l2 + half
+                out[y, x, 0] = np.uint8(min(max(v0, zero), c255))
+                out[y, x, 1] = np.uint8(min(max(v1, zero), c255))
+                out[y, x, 2] = np.uint8(min(max(v2, zero), c255))
+            else:
+                for k in range(c):
+                    v = np.float32(out[y, x, k]) + d * gain[k] + gg * glint_col[k] + half
+                    out[y, x, k] = np.uint8(min(max(v, zero), c255))

@@ -38,8 +38,9 @@ from seawatch.sim._kernels import (
     blend_reflection,
     fill_polys,
     first_water_rows,
+    sea_shade_sampled,
     sea_waves_grid,
-    sea_waves_rows,
+    wrap_coords,
 )
 from seawatch.sim.texture import (
     CoastSpec,
@@ -139,7 +140,10 @@ def _upsample_grid(a: np.ndarray, gw: int, step: int, size: tuple[int, int], r0:
     sample ``(i, j)`` sits at pixel ``((j - 0.5) * step - 0.5, (i - 0.5) * step - 0.5)``)."""
     a = a.astype(np.float32)
     k0 = max(0, r0 // step - 1)
-    sub = a[k0:]
+    # grid rows down to the last one the bottom output row interpolates (one more, so that no
+    # row is clamped at the cut: the same pixels as resizing the whole grid)
+    k1 = min(a.shape[0], (size[0] + step) // step + 2)
+    sub = a[k0:k1]
     big = cv2.resize(sub, (gw * step, sub.shape[0] * step), interpolation=cv2.INTER_LINEAR)
     o = step - k0 * step
     return big[r0 + o:size[0] + o, step:step + size[1]]
@@ -276,6 +280,7 @@ class Renderer:
         self._levels: dict[int, _PanoLevel] = {}
         self._lo_skip_band = True  # skip the coarse layer where the sharp band covers whole rows
         self._views: OrderedDict[tuple, _View] = OrderedDict()
+        self._tiles4: dict[int, np.ndarray] = {}
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
         # noise pools (static; a random offset per frame)
@@ -653,27 +658,58 @@ class Renderer:
             sea_waves_grid(img[:ys], r0, view.sea_grid, _GRID_PX, tile, self._gain, self._glint_col,
                            view.hi_map, view.hi_r0, self._water_top_y)
         if view.lo_half is not None:
-            self._sea_half(img, view, tile)
+            self._sea_half(img, view, t_s)
         nb = img[r0:].nbytes
         if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
             cache[fi] = img[r0:].copy()
             self._cache_bytes += nb
         return img
 
-    def _sea_half(self, img: np.ndarray, view: _View, tile: np.ndarray) -> None:
-        """Rows ``view.half_y0 ..`` (all water): the coarse layer upscaled along the columns, waves
-        and glints at half the horizontal resolution, then upscaled along the rows.  The sea's
-        texture is magnified along the rows (a pixel spans a few centimetres to decimetres across,
-        against metres in depth), so its detail survives; the columns keep full resolution."""
-        H, W, C = self.H, self.W, self.C
+    def _sea_half(self, img: np.ndarray, view: _View, t_s: float) -> None:
+        """Rows ``view.half_y0 ..`` (all water) at half the horizontal resolution: the coarse layer
+        upscaled along the columns, the wave texture sampled with one ``cv2.remap`` (coordinates
+        interpolated from the grid and wrapped into the tile) and shaded in one element-wise pass,
+        then upscaled along the rows.  The sea's texture is magnified along the rows (a pixel spans
+        centimetres to decimetres across, against metres in depth), so its detail survives; the
+        columns keep full resolution."""
+        H, W, C, s = self.H, self.W, self.C, _GRID_PX
         lo, k0 = view.lo_half, view.lo_k0
         ys = view.half_y0
         wh = lo.shape[1]
         tall = cv2.resize(lo, (wh, 2 * lo.shape[0]), interpolation=cv2.INTER_LINEAR).reshape(-1, wh, C)
         rows = tall[ys - 2 * k0:H - 2 * k0]
-        sea_waves_rows(rows, ys, view.sea_grid, float(_GRID_PX), _GRID_PX / 2.0, tile, self._gain, self._glint_col)
+        # wave parameters at the pixels: grid sample (i, j) sits at row (i - 0.5) * s - 0.5 of the
+        # image and column (j - 0.5) * s / 2 - 0.5 of the half-width rows
+        grid = view.sea_grid
+        i0 = max(0, (ys + s // 2) // s - 1)
+        sub = grid[i0:]
+        big = cv2.resize(sub, (grid.shape[1] * (s // 2), sub.shape[0] * s), interpolation=cv2.INTER_LINEAR)
+        y0 = ys - s * i0 + s
+        par = big[y0:y0 + H - ys, s // 2:s // 2 + wh]
+        maps = np.empty(par.shape[:2] + (2,), np.float32)
+        tile4 = self._wave_tile4(t_s)
+        wrap_coords(par, tile4.shape[0] - 1, maps)
+        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
+        sea_shade_sampled(rows, tex, par, self._gain, self._glint_col)
         wide = cv2.resize(rows, (2 * wh, H - ys), interpolation=cv2.INTER_LINEAR)
         img[ys:H] = wide[:, :W].reshape(H - ys, W, C)
+
+    def _wave_tile4(self, t_s: float) -> np.ndarray:
+        """The wave texture of ``t_s`` as a (T + 1, T + 1, 4) uint8 tile (shade, glint, 0, 0) with
+        its first row and column repeated at the end, so that bilinear sampling at wrapped
+        coordinates in ``[0, T)`` never leaves it (cached per animation frame)."""
+        fi = self.waves.frame_index(t_s)
+        t4 = self._tiles4.get(fi)
+        if t4 is None:
+            tile = self.waves.frame_by_index(fi)
+            n = tile.shape[0]
+            t4 = np.zeros((n + 1, n + 1, 4), np.uint8)
+            t4[:n, :n, :2] = tile
+            t4[n, :n, :2] = tile[0]
+            t4[:n, n, :2] = tile[:, 0]
+            t4[n, n, :2] = tile[0, 0]
+            self._tiles4[fi] = t4
+        return t4
 
     def render(self, t_s: float, cam: CameraModel, frame_seed: int = 0, draw_vessels: bool = True) -> RenderResult:
         """Render the world at time ``t_s`` through ``cam``.
