@@ -452,9 +452,9 @@ class StableFeatureExtractor:
         band_grid_cells: tuple[int, int] = (16, 2),
         scene_motion: bool = True,
         guided_px: float = 10.0,
-        band_describe_upscaled: bool = False,
+        band_describe_upscaled: bool = True,
         band_min_size_px: float = 0.0,
-        guided_min_quality: float = 0.4,
+        guided_min_quality: float = 0.25,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")

@@ -411,8 +411,8 @@ def grow_boxes(
     new box.  The box is kept as it was
     when nothing touches the core or the foreground fills more than ``max_fill`` of the window
     (a textured background, not one object), when the core itself does not stand out from the
-    background, and when the box covers more than ``max_area_frac`` of the image.  Not in the
-    paper.
+    background, and when the box covers more than ``max_area_frac`` of the image (its contrast
+    is still measured).  Not in the paper.
 
     Parameters
     ----------
@@ -437,8 +437,7 @@ def grow_boxes(
     contrast = np.full(len(out), np.nan)
     for n in range(len(out)):
         x, y, w, h = out[n]
-        if w * h > max_area_frac * hh * ww:
-            continue  # a cluster this large is no small hull hidden inside its features' extent
+        large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))
         x1, y1 = int(min(ww, np.ceil(x + w + gx))), int(min(hh, np.ceil(y + h + gy)))
@@ -458,7 +457,7 @@ def grow_boxes(
         core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
         peak = float(np.percentile(dev[core], 90)) if dev[core].size else 0.0
         contrast[n] = peak / max(sigma, 1.0)
-        if peak <= max(k_sigma * sigma, min_contrast):
+        if large or peak <= max(k_sigma * sigma, min_contrast):
             continue  # the core does not stand out: nothing to grow to
         thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
         fg = (dev > thr).astype(np.uint8)
@@ -544,7 +543,7 @@ class ClusterParams:
     merge_overlap: float = 0.5
     still_radius_px: float = 15.0
     relink_predict: bool = True
-    water_margin_px: float = 2.0
+    water_margin_px: float = 4.0
 
 
 class FeatureClusterer:
@@ -679,14 +678,16 @@ class FeatureClusterer:
         return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
-               horizon=None) -> tuple[Detections, Tracks]:
+               horizon=None, zoom: float = 1.0) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
 
         ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
         box to the object around its features (:func:`grow_boxes`); without it the boxes are
         the features' extent.  ``horizon`` (anything with ``row_at(x)``, in the snapshot's
-        pixels) marks the water, below it: with ``params.still_radius_px`` > 0, still stable
-        features there are clustered too (see :func:`frame_edges`)."""
+        pixels) marks the water, from ``params.water_margin_px`` times ``zoom`` (the camera's
+        zoom factor, 1 at its widest) below it: with ``params.still_radius_px`` > 0, still stable
+        features there are clustered too (see :func:`frame_edges`).  The margin leaves out the
+        foot of a distant coast, which lies a few pixels below the sea horizon."""
         p = self.params
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
@@ -695,7 +696,7 @@ class FeatureClusterer:
         still = None
         if horizon is not None and p.still_radius_px > 0 and len(st):
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
-            still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px)
+            still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 self.min_speed_px_s, still, p.still_radius_px)
         # indices into the snapshot
@@ -885,7 +886,8 @@ class StableFeatureTracker:
         self.last_snapshot = snap
         self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
-        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz)
+        zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
+        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
