@@ -363,6 +363,7 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
     # alerts
     flag_t = {}
     false_no_ais = false_other = clutter_no_ais = 0
+    false_detail: list[str] = []
     spoof_t = float("nan")
     for t, a in alerts:
         if a.kind == "no_ais":
@@ -373,16 +374,20 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
                     flag_t.setdefault(v, t)
             elif not vs:
                 clutter_no_ais += 1
+                false_detail.append(f"no_ais on clutter track {a.track_id} at {t:.1f} s")
             elif not (spoof and any(scn.vessels[v - 1].mmsi == spoof for v in vs if 0 < v <= len(scn.vessels))):
                 false_no_ais += 1
+                false_detail.append(f"no_ais on vessel(s) {sorted(vs)} at {t:.1f} s")
         elif a.kind == "possible_spoofing":
             if spoof and a.mmsi == spoof:
                 spoof_t = t if spoof_t != spoof_t else spoof_t
             else:
                 false_other += 1
+                false_detail.append(f"possible_spoofing on MMSI {a.mmsi} at {t:.1f} s")
         elif a.kind == "ais_not_seen":
             if not (spoof and a.mmsi == spoof):
                 false_other += 1
+                false_detail.append(f"ais_not_seen on MMSI {a.mmsi} at {t:.1f} s")
     hours = scn.duration_s / 3600.0
     ttf = [flag_t[v] - t_confirm[v] for v in no_ais_ids if v in flag_t and v in t_confirm]
     first_spoofed = float("nan")
@@ -400,6 +405,7 @@ def scenario_run(name: str, seed: int = 0, oracle: bool = False, duration_s: flo
         "no_ais_on_clutter_tracks": float(clutter_no_ais),
         "false_alerts_per_hour": (false_no_ais + false_other + clutter_no_ais) / max(hours - start_s / 3600.0, 1e-9),
         "false_alerts": float(false_no_ais + false_other + clutter_no_ais), "hours": hours - start_s / 3600.0,
+        "false_alert_list": false_detail,
         "spoof_flag_delay_s": spoof_t - spoof_from if spoof else float("nan"),
         "spoof_flag_delay_after_first_spoofed_report_s": spoof_t - first_spoofed if spoof else float("nan"),
         "spoof_flagged": float(spoof_t == spoof_t),
@@ -469,7 +475,8 @@ def _bench_scenarios(ctx) -> None:
                        target=0.0, per_seed=[res[k]["false_no_ais_alerts"] for k in sorted(res)])
             ctx.record(name, m, "no_ais_on_clutter_tracks", sum(res[k]["no_ais_on_clutter_tracks"] for k in res),
                        "count", per_seed=[res[k]["no_ais_on_clutter_tracks"] for k in sorted(res)])
-            ctx.record(name, m, "false_alerts_per_hour", false_all / hours, "1/h", hours=hours, false_alerts=false_all)
+            ctx.record(name, m, "false_alerts_per_hour", false_all / hours, "1/h", hours=hours, false_alerts=false_all,
+                       which={k: res[k]["false_alert_list"] for k in sorted(res) if res[k]["false_alert_list"]})
             ctx.record(name, m, "correct_mmsi_frac_tracked", float(np.mean([res[k]["correct_mmsi_frac_tracked"]
                                                                             for k in res])), "fraction")
             ctx.record(name, m, "wrong_mmsi_frac", float(max(res[k]["wrong_mmsi_frac"] for k in res)), "fraction",
