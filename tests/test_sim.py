@@ -412,3 +412,131 @@ def test_band_covered_rows_skip_the_coarse_layer_exactly(name, i):
         part = np.zeros((H, W, C), np.uint8)
         fast._lo_rows(part, mlo, y0, y1)
         assert np.array_equal(part[y0:y1], whole[y0:y1])
+
+
+def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
+    """Moving cameras sample the wave tile with one cv2.remap at coordinates interpolated from the
+    grid and wrapped into the tile, then shade element-wise: within 1 grey level of the per-pixel
+    kernel at the same pixels (remap's 1/32-texel weights), for coordinates far outside the tile."""
+    import cv2
+
+    from seawatch.sim._kernels import sea_shade_sampled, sea_waves_grid, wrap_coords
+
+    rng = np.random.default_rng(2)
+    step, H, W = 16, 96, 80
+    gh, gw = -(-H // step) + 2, -(-W // step) + 2
+    grid = np.empty((gh, gw, 4), np.float32)
+    grid[..., 0] = rng.uniform(-3000, 3000, (gh, gw))
+    grid[..., 1] = rng.uniform(-3000, 3000, (gh, gw))
+    grid[..., 2] = rng.uniform(0, 1.3, (gh, gw))
+    grid[..., 3] = rng.uniform(0, 1, (gh, gw))
+    tile = rng.integers(0, 256, (64, 64, 2), dtype=np.uint8)
+    tile4 = np.zeros((65, 65, 4), np.uint8)
+    tile4[:, :, :2] = np.pad(tile, ((0, 1), (0, 1), (0, 0)), mode="wrap")
+    big = cv2.resize(grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
+    par = big[step:step + H, step:step + W]
+    maps = np.empty((H, W, 2), np.float32)
+    wrap_coords(par, 64, maps)
+    assert maps.min() >= 0 and maps.max() < 64
+    assert np.allclose(np.mod(par[..., :2], 64.0), maps, atol=2e-3) or np.allclose(
+        (np.mod(par[..., :2] + 32, 64.0) - maps + 32) % 64, 0, atol=2e-3)
+    base = rng.integers(40, 200, (H, W, 3), dtype=np.uint8)
+    gain = np.array([0.5, 0.55, 0.6], np.float32)
+    glint = np.array([255.0, 255.0, 250.0], np.float32)
+    a, b = base.copy(), base.copy()
+    sea_waves_grid(a, 0, grid, step, tile, gain, glint, np.zeros((0, W, 2), np.float32), 0,
+                   np.full(4, -1.0, np.float32))
+    sea_shade_sampled(b, cv2.remap(tile4, maps, None, cv2.INTER_LINEAR), par, gain, glint)
+    d = np.abs(a.astype(int) - b.astype(int))
+    assert (a != base).mean() > 0.5
+    assert d.max() <= 1 and d.mean() < 0.2
+
+
+def test_half_width_sea_keeps_the_waves_and_the_truth():
+    """The half-width sea of a moving camera (the default for one that pans, tilts or zooms): the
+    ground truth identical, the sky, coast and band rows untouched, the water on average within
+    2 grey levels of the full-resolution waves, with the wave contrast within 10 %."""
+    i = 3
+    opts = dict(noise_sigma=0.0, jpeg_quality=0)
+    a = make_scenario("pan", seed=0, width=704, height=576, duration_s=10.0, fps=1.0).with_render_options(**opts)
+    b = a.with_render_options(sea_half_res=False, **opts)
+    assert a.renderer.sea_half_res and not b.renderer.sea_half_res
+    ra, rb = a._render(i), b._render(i)
+    assert np.array_equal(ra.label, rb.label) and np.array_equal(ra.boxes, rb.boxes)
+    assert np.array_equal(ra.visible, rb.visible)
+    ys = a.renderer._view(a.camera_at(i)).half_y0
+    assert 0 < ys < a.height  # some rows are rendered at half width
+    ia, ib = ra.image.astype(np.float64), rb.image.astype(np.float64)
+    assert np.array_equal(ia[:ys], ib[:ys])
+    water = ra.label[ys:] == 0
+    d = np.abs(ia[ys:] - ib[ys:])[water]
+    assert d.mean() < 2.0 and np.percentile(d, 99) <= 10
+
+    def contrast(img):  # spread of the row-detrended water pixels (green)
+        g = img[ys:, :, 1] - img[ys:, :, 1].mean(axis=1, keepdims=True)
+        return g[water].std()
+
+    ca, cb = contrast(ia), contrast(ib)
+    assert cb > 5.0 and abs(ca - cb) < 0.1 * cb
+    # the same seed renders the same frame again
+    c = make_scenario("pan", seed=0, width=704, height=576, duration_s=10.0, fps=1.0).with_render_options(**opts)
+    assert np.array_equal(c.render(i).image, ra.image)
+
+
+def test_bgra_remap_is_bit_identical():
+    """Panoramas resampled as BGRA (OpenCV's fast 4-channel path) and converted back give the
+    same pixels as resampling the 3-channel panorama, also with BORDER_TRANSPARENT."""
+    import cv2
+
+    from seawatch.sim.render import _bgra, _from_bgra, _remap_into
+
+    rng = np.random.default_rng(3)
+    src = rng.integers(0, 256, (60, 90, 3), dtype=np.uint8)
+    maps = np.dstack([rng.uniform(-5, 95, (40, 50)), rng.uniform(-5, 65, (40, 50))]).astype(np.float32)
+    a = cv2.remap(src, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    b = _from_bgra(cv2.remap(_bgra(src), maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), 3)
+    assert np.array_equal(a, b)
+    base = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    c = base.copy()
+    cv2.remap(src, maps, None, cv2.INTER_LINEAR, dst=c, borderMode=cv2.BORDER_TRANSPARENT)
+    d = base.copy()
+    _remap_into(d, _bgra(src), maps)
+    assert np.array_equal(c, d) and not np.array_equal(d, base)
+    outside = (maps[..., 0] < -1) | (maps[..., 1] < -1)
+    assert np.array_equal(d[outside], base[outside])
+
+
+def test_upsampled_grid_rows_equal_the_whole_grid():
+    """Upsampling only the grid rows an image band needs gives the pixels of upsampling it all."""
+    import cv2
+
+    from seawatch.sim.render import _upsample_grid
+
+    rng = np.random.default_rng(4)
+    for _ in range(40):
+        step = int(rng.choice([8, 16]))
+        H, W = int(rng.integers(20, 300)), int(rng.integers(20, 200))
+        gw, gh = -(-W // step) + 2, -(-H // step) + 2
+        a = rng.normal(size=(gh, gw, 2)).astype(np.float32)
+        r0 = int(rng.integers(0, H))
+        h1 = int(rng.integers(r0 + 1, H + 1))
+        whole = cv2.resize(a, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
+        ref = whole[r0 + step:h1 + step, step:step + W]
+        assert np.array_equal(_upsample_grid(a, gw, step, (h1, W), r0), ref)
+
+
+def test_sensor_noise_bank_sigma_and_frame_to_frame_change():
+    """Sensor noise comes from a fixed, seeded bank at a random offset per frame: the noise of a
+    frame has the bank's spread (Gaussian draws of the configured sigma truncated to whole grey
+    levels: 0.88 sigma), is unbiased, and consecutive frames get different noise."""
+    s = make_scenario("harbour", seed=0, width=352, height=288, duration_s=3.0, fps=5.0)
+    clean = s.with_render_options(noise_sigma=0.0)
+    noisy = s.with_render_options(noise_sigma=3.0)
+    r = noisy.renderer
+    bank = r._noise_pos.astype(np.int16) - r._noise_neg.astype(np.int16)
+    assert abs(bank.std() - 0.878 * 3.0) < 0.03 and abs(bank.mean()) < 0.02
+    n = [noisy.render(i).image.astype(np.int16) - clean.render(i).image.astype(np.int16) for i in (4, 5)]
+    for x in n:
+        assert abs(x.std() - bank.std()) < 0.1 and abs(x.mean()) < 0.1
+    assert np.mean(n[0] == n[1]) < 0.5  # different noise in consecutive frames
+    assert np.array_equal(noisy.render(4).image.astype(np.int16) - clean.render(4).image, n[0])
