@@ -416,8 +416,9 @@ def test_band_covered_rows_skip_the_coarse_layer_exactly(name, i):
 
 def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     """Moving cameras sample the wave tile with one cv2.remap at coordinates interpolated from the
-    grid and wrapped into the tile, then shade element-wise: within 1 grey level of the per-pixel
-    kernel at the same pixels (remap's 1/32-texel weights), for coordinates far outside the tile."""
+    grid and wrapped into the tile, then shade element-wise on the sea base colour looked up by
+    row: within 1 grey level of the per-pixel kernel at the same pixels (remap's 1/32-texel
+    weights), for coordinates far outside the tile."""
     import cv2
 
     from seawatch.sim._kernels import sea_shade_sampled, sea_waves_grid, wrap_coords
@@ -425,11 +426,12 @@ def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     rng = np.random.default_rng(2)
     step, H, W = 16, 96, 80
     gh, gw = -(-H // step) + 2, -(-W // step) + 2
-    grid = np.empty((gh, gw, 4), np.float32)
+    grid = np.empty((gh, gw, 5), np.float32)
     grid[..., 0] = rng.uniform(-3000, 3000, (gh, gw))
     grid[..., 1] = rng.uniform(-3000, 3000, (gh, gw))
     grid[..., 2] = rng.uniform(0, 1.3, (gh, gw))
     grid[..., 3] = rng.uniform(0, 1, (gh, gw))
+    grid[..., 4] = 2.0  # the sea base colour's row in the look-up table
     tile = rng.integers(0, 256, (64, 64, 2), dtype=np.uint8)
     tile4 = np.zeros((65, 65, 4), np.uint8)
     tile4[:, :, :2] = np.pad(tile, ((0, 1), (0, 1), (0, 0)), mode="wrap")
@@ -438,18 +440,29 @@ def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     maps = np.empty((H, W, 2), np.float32)
     wrap_coords(par, 64, maps)
     assert maps.min() >= 0 and maps.max() < 64
-    assert np.allclose(np.mod(par[..., :2], 64.0), maps, atol=2e-3) or np.allclose(
-        (np.mod(par[..., :2] + 32, 64.0) - maps + 32) % 64, 0, atol=2e-3)
-    base = rng.integers(40, 200, (H, W, 3), dtype=np.uint8)
+    k = (par[..., :2].astype(np.float64) - maps) / 64.0  # whole tiles apart
+    assert np.abs(k - np.round(k)).max() < 1e-4
+    colour = np.array([120.0, 90.0, 60.0], np.float32)
+    lut = np.array([[0, 0, 0], [0, 0, 0], colour, [250, 250, 250]], np.float32)
+    base = np.empty((H, W, 3), np.uint8)
+    base[:] = colour.astype(np.uint8)
     gain = np.array([0.5, 0.55, 0.6], np.float32)
     glint = np.array([255.0, 255.0, 250.0], np.float32)
-    a, b = base.copy(), base.copy()
-    sea_waves_grid(a, 0, grid, step, tile, gain, glint, np.zeros((0, W, 2), np.float32), 0,
-                   np.full(4, -1.0, np.float32))
-    sea_shade_sampled(b, cv2.remap(tile4, maps, None, cv2.INTER_LINEAR), par, gain, glint)
+    a, b = base.copy(), np.zeros_like(base)
+    sea_waves_grid(a, 0, np.ascontiguousarray(grid[..., :4]), step, tile, gain, glint,
+                   np.zeros((0, W, 2), np.float32), 0, np.full(4, -1.0, np.float32))
+    tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
+    sea_shade_sampled(b, tex, np.ascontiguousarray(par), lut, gain, glint)
     d = np.abs(a.astype(int) - b.astype(int))
     assert (a != base).mean() > 0.5
     assert d.max() <= 1 and d.mean() < 0.2
+    # the base colour is interpolated between look-up rows and clamped at the ends
+    flat = np.zeros((1, 3, 5), np.float32)
+    flat[0, :, 4] = (2.25, -3.0, 9.0)
+    out = np.zeros((1, 3, 3), np.uint8)
+    sea_shade_sampled(out, np.zeros((1, 3, 4), np.uint8), flat, lut, gain, glint)
+    assert np.array_equal(out[0, 0], np.floor(colour + 0.25 * (250 - colour) + 0.5).astype(np.uint8))
+    assert np.array_equal(out[0, 1], [0, 0, 0]) and np.array_equal(out[0, 2], [250, 250, 250])
 
 
 def test_half_width_sea_keeps_the_waves_and_the_truth():

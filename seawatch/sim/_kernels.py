@@ -341,34 +341,50 @@ def wrap_coords(params, period, out):
                 out[y, x, k] = v - p * np.floor(v * ip)
 
 
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_shade_sampled(out, tex, params, gain, glint_col):
-    """Add wave shading and sun glints to ``out`` (n, w, C) uint8, all water, from the wave
-    texture already sampled at every pixel: ``tex`` (n, w, >= 2) uint8 (shade, glint) and
-    ``params`` (n, w, 4) float32 (texture x, y, wave contrast, glint strength): the arithmetic of
-    :func:`sea_waves_grid` without its texture look-ups (an element-wise pass)."""
+def sea_shade_sampled(out, tex, params, lut, gain, glint_col):
+    """Sea pixels from the wave texture already sampled at every pixel (an element-wise pass with
+    the arithmetic of :func:`sea_waves_grid`, without its texture look-ups).
+
+    Parameters
+    ----------
+    out : (n, w, C) uint8
+        Written: the sea base colour plus wave shading and sun glints.
+    tex : (n, w, >= 2) uint8
+        Wave texture (shade, glint) at the pixels.
+    params : (n, w, 5) float32
+        Texture x, y (unused here), wave contrast, glint strength, and the row of the sea base
+        colour in ``lut`` (fractional: linear interpolation, clamped at the ends).
+    lut : (m, C) float32
+        Sea base colour by row.
+    gain, glint_col : (C,) float32
+    """
     n, w, c = out.shape
+    m = lut.shape[0]
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
     zero = np.float32(0.0)
+    one = np.float32(1.0)
     c255 = np.float32(255.0)
-    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
-    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
     for y in range(n):
         for x in range(w):
             am = params[y, x, 2]
             g = max(params[y, x, 3], zero) * inv
+            ly = params[y, x, 4]
+            if ly <= 0.0:
+                i = 0
+                f = zero
+            elif ly >= m - 1:
+                i = m - 2 if m > 1 else 0
+                f = one if m > 1 else zero
+            else:
+                i = int(ly)
+                f = ly - np.float32(i)
+            i1 = i + 1 if m > 1 else i
             d = (np.float32(tex[y, x, 0]) - c128) * am
             gg = np.float32(tex[y, x, 1]) * g
-            if c == 3:
-                v0 = np.float32(out[y, x, 0]) + d * g0 + gg * l0 + half
-                v1 = np.float32(out[y, x, 1]) + d * g1 + gg * l1 + half
-                v2 = np.float32(out[y, x, 2]) + d * g2 + gg * l2 + half
-                out[y, x, 0] = np.uint8(min(max(v0, zero), c255))
-                out[y, x, 1] = np.uint8(min(max(v1, zero), c255))
-                out[y, x, 2] = np.uint8(min(max(v2, zero), c255))
-            else:
-                for k in range(c):
-                    v = np.float32(out[y, x, k]) + d * gain[k] + gg * glint_col[k] + half
-                    out[y, x, k] = np.uint8(min(max(v, zero), c255))
+            for k in range(c):
+                v = lut[i, k] + f * (lut[i1, k] - lut[i, k]) + d * gain[k] + gg * glint_col[k] + half
+                out[y, x, k] = np.uint8(min(max(v, zero), c255))

@@ -176,8 +176,7 @@ class _PanoLevel:
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache",
-                 "half_y0", "lo_half", "lo_k0")
+    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache", "half_y0")
 
 
 class Renderer:
@@ -268,6 +267,7 @@ class Renderer:
         # colour panoramas resampled as 4 channels (OpenCV's remap has a fast path for 4, not 3;
         # the pixels are the same to the last bit), converted back with cvtColor
         self._lo_src = _bgra(self.pano.lo)
+        self._sea_lut = np.ascontiguousarray(self.pano.lo[:, 0, :], np.float32)  # (rows, C)
         self._hi_src = _bgra(self.pano.hi)
         wt = self.pano.water_top_deg
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
@@ -391,11 +391,11 @@ class Renderer:
         b1 = min(H, (int(rows_c[-1]) + 1) * s) if len(rows_c) else H
         m0 = min(r0_, b0)
         # below the band every pixel is water: the panorama coordinates are needed only down to b1
-        hi_map = up(s, (b1, W), (hix, hiy), m0) if m0 < b1 else np.zeros((0, W, 2), np.float32)
+        hi_map = np.ascontiguousarray(up(s, (b1, W), (hix, hiy), m0)) if m0 < b1 else np.zeros((0, W, 2), np.float32)
         band_maps = None
         c0 = c1 = 0  # rows that the band covers entirely (they need no coarse layer)
         if b1 > b0:
-            band_maps = np.ascontiguousarray(hi_map[b0 - m0:b1 - m0])
+            band_maps = hi_map[b0 - m0:b1 - m0]  # (C-contiguous rows)
             # rows whose every pixel has its 4 taps inside the band: pixel row y interpolates the
             # grid rows i = (y + 0.5) / s + 0.5 and i + 1 (a convex combination), so it is covered
             # when every sample of both rows lies inside (with a margin for rounding)
@@ -411,21 +411,15 @@ class Renderer:
         # coarse sky / sea / clouds: smooth, so resampled at half resolution and upscaled (rows the
         # band covers entirely are skipped)
         bg = np.empty((H, W, self.C), np.uint8)
-        mlo = up(s // 2, (-(-H // 2), -(-W // 2)), (lox, loy))
-        # half-resolution sea: rows from ys down are all water (below the band); their coarse
-        # layer is kept at half resolution for the wave shading
+        # half-width sea: rows from ys down are all water (below the band), rendered every frame
+        # by :meth:`_sea_half` with their sea base colour (so they need no coarse layer here)
         ys = min(H, b1 + (b1 & 1)) if (self.sea_half_res and self.options.waves and r0_ < H) else H
-        view.half_y0, view.lo_half, view.lo_k0 = H, None, 0
-        for y0, y1 in ((0, c0), (c1, H)) if c1 > c0 and self._lo_skip_band else ((0, H),):
-            if y1 > max(y0, ys):
-                if y0 < ys:
-                    self._lo_rows(bg, mlo, y0, ys)
-                ya = max(y0, ys)
-                lo, k0 = self._lo_half(mlo, ya, y1)
-                bg[ya:y1] = 0  # filled with the waves, every frame (:meth:`_sea_half`)
-                view.half_y0, view.lo_half, view.lo_k0 = ya, lo, k0
-            elif y1 > y0:
+        view.half_y0 = ys
+        mlo = up(s // 2, (min(-(-H // 2), (ys + 1) // 2 + 1), -(-W // 2)), (lox, loy))
+        for y0, y1 in ((0, c0), (c1, ys)) if c1 > c0 and self._lo_skip_band else ((0, ys),):
+            if y1 > y0:
                 self._lo_rows(bg, mlo, y0, y1)
+        bg[ys:] = 0
         if band_maps is not None:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
             _remap_into(bg[b0:b1], self._hi_src, band_maps)
         view.bg = bg
@@ -433,11 +427,14 @@ class Renderer:
         view.hi_r0 = m0
         if r0_ < H:
             view.sea_r0 = r0_
-            view.sea_grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
+            chans = (tx, ty, amp, gl, loy) if ys < H else (tx, ty, amp, gl)  # (+ the sea base's row)
+            view.sea_grid = np.ascontiguousarray(np.stack(chans, axis=-1), np.float32)
         else:
             view.sea_r0 = 0
             view.sea_grid = None
-        wr = first_water_rows(hi_map, self._water_top_y) + m0  # b1 where none in the band rows
+        # (rows above r0_ hold no water: the scan starts there)
+        w0 = max(0, min(r0_, b1) - m0)
+        wr = first_water_rows(hi_map[w0:], self._water_top_y) + (m0 + w0)  # b1 where none in the band rows
         view.water_row = np.where(wr >= b1, b1 if r0_ < H else H, wr).astype(np.float64)
         return view
 
@@ -651,13 +648,14 @@ class Renderer:
                 img[:r0] = view.bg[:r0]
                 img[r0:] = hit
                 return img
-        img = view.bg.copy()
-        tile = self.waves.frame(t_s)
         ys = view.half_y0
+        img = np.empty_like(view.bg)
+        img[:ys] = view.bg[:ys]
+        tile = self.waves.frame(t_s)
         if r0 < ys:  # full resolution down to the half-resolution rows
             sea_waves_grid(img[:ys], r0, view.sea_grid, _GRID_PX, tile, self._gain, self._glint_col,
                            view.hi_map, view.hi_r0, self._water_top_y)
-        if view.lo_half is not None:
+        if ys < self.H:
             self._sea_half(img, view, t_s)
         nb = img[r0:].nbytes
         if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
@@ -666,20 +664,19 @@ class Renderer:
         return img
 
     def _sea_half(self, img: np.ndarray, view: _View, t_s: float) -> None:
-        """Rows ``view.half_y0 ..`` (all water) at half the horizontal resolution: the coarse layer
-        upscaled along the columns, the wave texture sampled with one ``cv2.remap`` (coordinates
-        interpolated from the grid and wrapped into the tile) and shaded in one element-wise pass,
-        then upscaled along the rows.  The sea's texture is magnified along the rows (a pixel spans
-        centimetres to decimetres across, against metres in depth), so its detail survives; the
-        columns keep full resolution."""
+        """Rows ``view.half_y0 ..`` (all water, below the horizon band) at half the horizontal
+        resolution: the wave parameters and the sea base's row in the coarse panorama interpolated
+        from the grid, the wave texture sampled with one ``cv2.remap`` (coordinates wrapped into
+        the tile), shading and glints in one element-wise pass, then upscaled along the rows.
+        The sea's texture is magnified along the rows (a pixel spans centimetres to decimetres
+        across, against metres in depth), so its detail survives; the columns keep full
+        resolution.  Below the horizon the coarse panorama depends on elevation only (no clouds),
+        so the sea base is a look-up of its first column."""
         H, W, C, s = self.H, self.W, self.C, _GRID_PX
-        lo, k0 = view.lo_half, view.lo_k0
         ys = view.half_y0
-        wh = lo.shape[1]
-        tall = cv2.resize(lo, (wh, 2 * lo.shape[0]), interpolation=cv2.INTER_LINEAR).reshape(-1, wh, C)
-        rows = tall[ys - 2 * k0:H - 2 * k0]
-        # wave parameters at the pixels: grid sample (i, j) sits at row (i - 0.5) * s - 0.5 of the
-        # image and column (j - 0.5) * s / 2 - 0.5 of the half-width rows
+        wh = -(-W // 2)
+        # grid sample (i, j) sits at image row (i - 0.5) * s - 0.5 and at column (j - 0.5) * s / 2 - 0.5
+        # of the half-width rows
         grid = view.sea_grid
         i0 = max(0, (ys + s // 2) // s - 1)
         sub = grid[i0:]
@@ -690,7 +687,8 @@ class Renderer:
         tile4 = self._wave_tile4(t_s)
         wrap_coords(par, tile4.shape[0] - 1, maps)
         tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
-        sea_shade_sampled(rows, tex, par, self._gain, self._glint_col)
+        rows = np.empty((H - ys, wh, C), np.uint8)
+        sea_shade_sampled(rows, tex, par, self._sea_lut, self._gain, self._glint_col)
         wide = cv2.resize(rows, (2 * wh, H - ys), interpolation=cv2.INTER_LINEAR)
         img[ys:H] = wide[:, :W].reshape(H - ys, W, C)
 
