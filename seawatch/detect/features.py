@@ -452,7 +452,7 @@ class StableFeatureExtractor:
         band_grid_cells: tuple[int, int] = (16, 2),
         scene_motion: bool = True,
         guided_px: float = 10.0,
-        band_describe_upscaled: bool = True,
+        band_describe_upscaled: bool = False,
         band_min_size_px: float = 0.0,
         guided_min_quality: float = 0.25,
     ) -> None:
@@ -665,16 +665,17 @@ class StableFeatureExtractor:
         second distance is that to the nearest other active feature anywhere."""
         if len(act) < 2 or len(desc) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        # FLANN's linear index is exact and deterministic (the randomised kd-trees are neither,
-        # and cost the same at a few hundred features)
-        algo = dict(algorithm=1, trees=self.flann_trees) if self.flann_trees > 0 else dict(algorithm=0)
-        index = cv2.flann_Index(self._desc[act], algo)
-        nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
-        nn = nn.astype(np.int64)
         min_q = self.min_quality
         if kxy is not None and radius_px > 0:
-            nn, dist = self._guided(desc, act, kxy, radius_px, nn, dist)
+            nn, dist = self._guided(desc, act, kxy, radius_px)
             min_q = self.guided_min_quality
+        else:
+            # FLANN's linear index is exact and deterministic (the randomised kd-trees are
+            # neither, and cost the same at a few hundred features)
+            algo = dict(algorithm=1, trees=self.flann_trees) if self.flann_trees > 0 else dict(algorithm=0)
+            index = cv2.flann_Index(self._desc[act], algo)
+            nn, dist = index.knnSearch(desc, 2, params=dict(checks=self.flann_checks))
+            nn = nn.astype(np.int64)
         q = match_quality(dist[:, 0], dist[:, 1])
         ok = (q >= min_q) & (nn[:, 0] >= 0)
         qi = np.flatnonzero(ok)
@@ -689,7 +690,7 @@ class StableFeatureExtractor:
         sel = srt[first]
         return qi[sel], act[ti[sel]]
 
-    def _guided(self, desc, act, kxy, radius_px, nn_g, dist_g):
+    def _guided(self, desc, act, kxy, radius_px):
         """Nearest and second-nearest (index into ``act``, squared distance) among the active
         features expected within ``radius_px`` of each keypoint (see :meth:`_match`)."""
         n = len(desc)
@@ -719,8 +720,12 @@ class StableFeatureExtractor:
         dist[qs[fpos[has2]], 1] = ds[second[has2]]
         # one candidate: the second distance is to the nearest other active feature anywhere
         one = qs[fpos[~has2]]
-        other = np.where(nn_g[one, 0] == nn[one, 0], dist_g[one, 1], dist_g[one, 0])
-        dist[one, 1] = other
+        if len(one):
+            a = self._desc[act]
+            d2 = (np.einsum("ij,ij->i", desc[one], desc[one])[:, None] + np.einsum("ij,ij->i", a, a)[None, :]
+                  - 2.0 * (desc[one] @ a.T))
+            d2[np.arange(len(one)), nn[one, 0]] = np.inf
+            dist[one, 1] = np.maximum(d2.min(axis=1), 0.0)
         return nn, dist
 
     def _camera_motion(self, src: np.ndarray, dst: np.ndarray, stable: np.ndarray,

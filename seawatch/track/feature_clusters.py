@@ -391,6 +391,15 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
+def _channel_max(a: np.ndarray) -> np.ndarray:
+    """Largest value over the last (channel) axis; element-wise maxima, which NumPy does much
+    faster than a reduction over an axis of length 3."""
+    out = a[..., 0]
+    for c in range(1, a.shape[-1]):
+        out = np.maximum(out, a[..., c])
+    return out
+
+
 def grow_boxes(
     image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
@@ -447,9 +456,9 @@ def grow_boxes(
         win = img[y0:y1, x0:x1].astype(np.float32)
         ring = np.concatenate([win[:, :bw], win[:, -bw:]], axis=1)  # (rows, 2 bw, C)
         bg = np.median(ring, axis=1)  # (rows, C)
-        dev_ring = np.abs(ring - bg[:, None, :]).max(axis=2)
+        dev_ring = _channel_max(np.abs(ring - bg[:, None, :]))
         sigma = 1.4826 * float(np.median(dev_ring))
-        dev = np.abs(win - bg[:, None, :]).max(axis=2)
+        dev = _channel_max(np.abs(win - bg[:, None, :]))
         cx, cy, cw, ch = cores[n]
         c0x, c0y = int(max(0, np.floor(cx)) - x0), int(max(0, np.floor(cy)) - y0)
         c1x, c1y = int(np.ceil(cx + cw)) - x0 + 1, int(np.ceil(cy + ch)) - y0 + 1
