@@ -624,7 +624,7 @@ def _cmd_sweep(args) -> int:  # owner: stable-features tracker
                     gt[f.index] = (g.ids[vis], g.boxes[vis])
                     yield f
 
-            snaps = extract_features(frames(), extractor(scn.fps))
+            snaps = extract_features(frames(), extractor(scn.fps), camera=scn.camera)
             sequences.append(SweepSequence(f"sim:{name}", snaps, gt))
     for video, gt_dir, off in zip(args.video, args.gt, offsets):
         from seawatch.io.gt import read_mardct

@@ -177,6 +177,8 @@ class FeatureSnapshot:
     shape : (height, width) of the image.
     noise_px_s : median speed relative to the camera of the stable features seen this frame
         (most of them are static, so this measures the velocity noise; NaN when none).
+    horizon : the sea horizon the frame was processed with (None: none given).
+    zoom : the camera's zoom factor given with it (1: its widest, or unknown).
     """
 
     t_s: float
@@ -198,6 +200,8 @@ class FeatureSnapshot:
     camera_motion_ok: bool = True
     shape: tuple[int, int] | None = None
     noise_px_s: float = float("nan")
+    horizon: object | None = None
+    zoom: float = 1.0
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -815,7 +819,7 @@ class StableFeatureExtractor:
 
     # ----------------------------------------------------------------- main
     def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None,
-                horizon=None) -> FeatureSnapshot:
+                horizon=None, zoom: float = 1.0) -> FeatureSnapshot:
         """Detect, describe and match the features of one frame; update the active set.
 
         Parameters
@@ -827,6 +831,8 @@ class StableFeatureExtractor:
             (:class:`seawatch.detect.horizon.Horizon`).  With it, the water band below it gets
             its own keypoint pass (``band_*``) and the camera motion is fitted to the scene
             above it first (``scene_motion``); None: the paper's single pass.
+        zoom : float, the camera's zoom factor (1 at its widest), kept in the snapshot for the
+            clustering's water margin.
 
         Raises
         ------
@@ -961,7 +967,10 @@ class StableFeatureExtractor:
         self._n += 1
         self._grey_prev = grey
         self._h_prev = h
-        return self._snapshot(t_s, fi, h, dt, len(kxy), len(si), motion_ok, matched_slots=si)
+        snap = self._snapshot(t_s, fi, h, dt, len(kxy), len(si), motion_ok, matched_slots=si)
+        snap.horizon = horizon
+        snap.zoom = float(zoom)
+        return snap
 
     def _snapshot(self, t_s, fi, h, dt, n_kp, n_matched, motion_ok, matched_slots) -> FeatureSnapshot:
         act = np.flatnonzero(self._alive)

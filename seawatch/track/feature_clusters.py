@@ -46,6 +46,7 @@ __all__ = [
     "FeatureClusterer",
     "StableFeatureTracker",
     "grow_boxes",
+    "camera_horizon",
 ]
 
 NO_COMMON_FRAME = 1000.0  # dissimilarity of two features that were never seen in the same frame
@@ -698,6 +699,8 @@ class FeatureClusterer:
         features there are clustered too (see :func:`frame_edges`).  The margin leaves out the
         foot of a distant coast, which lies a few pixels below the sea horizon."""
         p = self.params
+        if horizon is None and getattr(snap, "horizon", None) is not None:
+            horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
             self.noise_px_s = nz if not np.isfinite(self.noise_px_s) else 0.9 * self.noise_px_s + 0.1 * nz
@@ -787,6 +790,26 @@ class FeatureClusterer:
         return dets, tracks
 
 
+def camera_horizon(camera, frame: Frame):
+    """The sea horizon of a frame from a camera model at the frame's PTZ state (or pose), in the
+    frame's pixels, and the zoom factor: ``(Horizon or None, zoom)``."""
+    from seawatch.detect.horizon import Horizon
+
+    cam = camera
+    zoom = 1.0
+    if frame.ptz is not None:
+        cam = cam.with_ptz(frame.ptz)
+        zoom = float(frame.ptz.zoom)
+    elif frame.pose is not None:
+        cam = cam.with_pose(pan_deg=frame.pose.pan_deg, tilt_deg=frame.pose.tilt_deg, roll_deg=frame.pose.roll_deg)
+    h, w = frame.shape
+    sx = w / float(cam.intrinsics.width)  # a camera model of another resolution
+    ends = np.asarray(cam.horizon_row(np.array([0.0, cam.intrinsics.width - 1.0])), np.float64) * sx
+    if not np.all(np.isfinite(ends)):
+        return None, zoom
+    return Horizon(float(ends[0]), float(ends[1]), int(w), kind="sky"), zoom
+
+
 class StableFeatureTracker:
     """Detector-tracker stage of paper B: frames in, tracked feature clusters out.
 
@@ -825,25 +848,15 @@ class StableFeatureTracker:
     def _horizon(self, frame: Frame):
         """The sea horizon of this frame: from the camera model at the frame's PTZ state (or
         pose) when the stage has a camera, otherwise from the image (paper A's detector,
-        :class:`seawatch.detect.horizon.HorizonTracker`); None when off or not found."""
-        from seawatch.detect.horizon import Horizon, HorizonTracker
+        :class:`seawatch.detect.horizon.HorizonTracker`) when asked (``horizon="auto"`` or
+        ``"detect"``); None when off or not found."""
+        from seawatch.detect.horizon import HorizonTracker
 
         mode = self.horizon_mode
         if mode == "off":
             return None
-        cam = self.camera
-        if cam is not None and mode in ("auto", "camera"):
-            if frame.ptz is not None:
-                cam = cam.with_ptz(frame.ptz)
-            elif frame.pose is not None:
-                cam = cam.with_pose(pan_deg=frame.pose.pan_deg, tilt_deg=frame.pose.tilt_deg,
-                                    roll_deg=frame.pose.roll_deg)
-            h, w = frame.shape
-            sx = w / float(cam.intrinsics.width)  # a camera model of another resolution
-            ends = np.asarray(cam.horizon_row(np.array([0.0, cam.intrinsics.width - 1.0])), np.float64) * sx
-            if np.all(np.isfinite(ends)):
-                return Horizon(float(ends[0]), float(ends[1]), int(w), kind="sky")
-            return None
+        if self.camera is not None and mode in ("auto", "camera"):
+            return camera_horizon(self.camera, frame)[0]
         if mode == "camera":
             return None
         if self._horizon_tracker is None:
@@ -889,13 +902,13 @@ class StableFeatureTracker:
         """
         try:
             hz = self._horizon(frame)
-            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz)
+            zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
+            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
         except ValueError as exc:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
         self.last_snapshot = snap
         self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
-        zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
         dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)

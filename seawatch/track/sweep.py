@@ -70,7 +70,8 @@ def compact_snapshot(s: FeatureSnapshot) -> FeatureSnapshot:
         stable=s.stable.copy(), matched=s.matched.copy(), velocity=s.velocity.astype(f32),
         history=s.history.astype(f32), image_velocity=s.image_velocity.astype(f32),
         homography=s.homography, dt_s=s.dt_s, n_keypoints=s.n_keypoints, n_matched=s.n_matched,
-        camera_motion_ok=s.camera_motion_ok, shape=s.shape,
+        camera_motion_ok=s.camera_motion_ok, shape=s.shape, horizon=getattr(s, "horizon", None),
+        zoom=float(getattr(s, "zoom", 1.0)),
     )
 
 
@@ -96,16 +97,21 @@ class SweepSequence:
 
 
 def extract_features(frames: Iterable, extractor: StableFeatureExtractor | None = None,
-                     keep: Callable[[int], bool] | None = None) -> list[FeatureSnapshot]:
+                     keep: Callable[[int], bool] | None = None, camera=None) -> list[FeatureSnapshot]:
     """Run the feature stage over frames (:class:`seawatch.types.Frame`) and keep its snapshots.
 
     ``keep(frame_index)`` may drop frames from the result (they are still processed); by
-    default every frame is kept, as the clustering needs them all.
+    default every frame is kept, as the clustering needs them all.  With ``camera`` (a
+    :class:`seawatch.camera.CameraModel`), each frame's horizon at its PTZ state goes with it, as
+    in the tracker stage (the water band, and the still clusters on the water).
     """
+    from seawatch.track.feature_clusters import camera_horizon
+
     ext = extractor or StableFeatureExtractor()
     out = []
     for f in frames:
-        snap = ext.process(f.image, f.t_s, f.index)
+        hz, zoom = camera_horizon(camera, f) if camera is not None else (None, 1.0)
+        snap = ext.process(f.image, f.t_s, f.index, horizon=hz, zoom=zoom)
         if keep is None or keep(f.index):
             out.append(compact_snapshot(snap))
     return out
