@@ -362,6 +362,8 @@ def sea_shade_sampled(out, tex, params, lut, gain, glint_col):
     """
     n, w, c = out.shape
     m = lut.shape[0]
+    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
+    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
@@ -385,6 +387,14 @@ def sea_shade_sampled(out, tex, params, lut, gain, glint_col):
             i1 = i + 1 if m > 1 else i
             d = (np.float32(tex[y, x, 0]) - c128) * am
             gg = np.float32(tex[y, x, 1]) * g
+            if c == 3:  # unrolled (the colour case)
+                b0 = lut[i, 0] + f * (lut[i1, 0] - lut[i, 0]) + d * g0 + gg * l0 + half
+                b1 = lut[i, 1] + f * (lut[i1, 1] - lut[i, 1]) + d * g1 + gg * l1 + half
+                b2 = lut[i, 2] + f * (lut[i1, 2] - lut[i, 2]) + d * g2 + gg * l2 + half
+                out[y, x, 0] = np.uint8(int(min(max(b0, zero), c255)))
+                out[y, x, 1] = np.uint8(int(min(max(b1, zero), c255)))
+                out[y, x, 2] = np.uint8(int(min(max(b2, zero), c255)))
+                continue
             for k in range(c):
                 v = lut[i, k] + f * (lut[i1, k] - lut[i, k]) + d * gain[k] + gg * glint_col[k] + half
                 out[y, x, k] = np.uint8(min(max(v, zero), c255))
