@@ -542,7 +542,7 @@ class Renderer:
                        hi_map, 0, self._water_top_y)
         return out
 
-    def _tiles(self, store, built, ty0, ty1, tx0, tx1, make):
+    def _tiles(self, store, built, ty0, ty1, tx0, tx1, make, conv=None):
         """Build the missing tiles of ``store`` among tiles ``[ty0:ty1, tx0:tx1]`` (one region:
         the bounding box of the missing ones) with ``make(y0, y1, x0, x1)``.  Returns ``(image,
         oy, ox)``: ``store`` (0, 0), or over the memory budget a region built for this call only."""
@@ -554,12 +554,14 @@ class Renderer:
         rr, cc = np.nonzero(miss)
         a0, a1 = ty0 + int(rr.min()), ty0 + int(rr.max()) + 1
         b0, b1 = tx0 + int(cc.min()), tx0 + int(cc.max()) + 1
-        nb = int(np.count_nonzero(~built[a0:a1, b0:b1])) * T * T * self.C
+        nb = int(np.count_nonzero(~built[a0:a1, b0:b1])) * T * T * store.shape[2]
         if self._cache_bytes + nb > self.sea_cache_mb * 1e6:
             oy, ox = ty0 * T, tx0 * T
-            return make(oy, min(ph, ty1 * T), ox, min(pw, tx1 * T)), oy, ox
+            out = make(oy, min(ph, ty1 * T), ox, min(pw, tx1 * T))
+            return (out if conv is None else conv(out)), oy, ox
         y0, y1, x0, x1 = a0 * T, min(ph, a1 * T), b0 * T, min(pw, b1 * T)
-        store[y0:y1, x0:x1] = make(y0, y1, x0, x1)
+        out = make(y0, y1, x0, x1)
+        store[y0:y1, x0:x1] = out if conv is None else conv(out)
         built[a0:a1, b0:b1] = True
         self._cache_bytes += nb
         return store, 0, 0
@@ -586,10 +588,10 @@ class Renderer:
         fi = self.waves.frame_index(t_s) if self.options.waves else -1
         entry = L.frames.get(fi)
         if entry is None:  # virtual memory: pages are only touched tile by tile
-            entry = L.frames[fi] = (np.zeros((ph, pw, self.C), np.uint8),
+            entry = L.frames[fi] = (np.zeros((ph, pw, 4 if self.C == 3 else 1), np.uint8),  # BGRA: fast remap
                                     np.zeros((-(-ph // T), -(-pw // T)), bool))
         src, oy, ox = self._tiles(entry[0], entry[1], ty0, ty1, tx0, tx1,
-                                  lambda y0, y1, x0, x1: self._pano_region(L, fi, y0, y1, x0, x1))
+                                  lambda y0, y1, x0, x1: self._pano_region(L, fi, y0, y1, x0, x1), conv=_bgra)
         m = _upsample_grid(np.stack((px - ox, py - oy), axis=-1), gw, s, (H, W))
         # rows whose grid samples above and below all lie above the lowest water top hold no water
         # (the map is linear between samples): the scan for the first water row starts below them
@@ -597,7 +599,7 @@ class Renderer:
         r_s = min(H, max(0, (int(wet[0]) - 2) * s)) if len(wet) else H
         water_row = (first_water_rows(m[r_s:], L.water_top_y[ox:] - np.float32(oy)) + r_s).astype(np.float64)
         m1, m2 = cv2.convertMaps(m, None, cv2.CV_16SC2)
-        img = cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        img = _from_bgra(cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), self.C)
         return img.reshape(H, W, self.C), water_row
 
     # --------------------------------------------------------------------- vessels
