@@ -13,7 +13,9 @@ Everything runs on one thread (``cv2.setNumThreads(1)``, ``numba.set_num_threads
 kernels are serial anyway).  For each 704x576 scenario the CPU time of the render stages is also
 reported (median over frames, ``stage_ms_cpu``): ``background`` (sky, coast and sea base of a new
 camera view, or the panorama remap of a swaying camera), ``sea`` (animated waves and glints),
-``vessels`` (hulls, wakes, reflections, labels) and ``sensor`` (blur, noise, JPEG).
+``vessels`` (hulls, wakes, reflections, labels) and ``sensor`` (blur, noise, JPEG).  For ``pan`` the
+CPU time of one JPEG round trip of its 704x576 frame at its quality (85) is reported alone: the floor
+of its ``sensor`` stage.
 """
 
 from __future__ import annotations
@@ -122,3 +124,14 @@ def run(ctx) -> None:
             for st in sorted(per):
                 ctx.record(ds, f"render: {st}", "stage_ms_cpu", float(np.median(per[st]) * 1e3), "ms",
                            frames=len(frames))
+        if name == "pan" and (w, h) == (704, 576):  # the sensor stage's floor: one q85 JPEG round trip
+            raw = scn.with_render_options(jpeg_quality=0).render(100 if scn.n_frames > 100 else 0).image
+            q = int(scn.options.jpeg_quality)
+            cpu_j = []
+            for _ in range(30 if ctx.quick else 100):
+                c0 = time.process_time()
+                ok, buf = cv2.imencode(".jpg", raw, [cv2.IMWRITE_JPEG_QUALITY, q])
+                cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+                cpu_j.append(time.process_time() - c0)
+            ctx.record(ds, f"JPEG q{q} round trip alone (cv2.imencode + imdecode)", "ms_per_frame_cpu",
+                       float(np.median(cpu_j) * 1e3), "ms")
