@@ -327,74 +327,83 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
 
 
 
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def wrap_coords(params, period, out):
-    """``out[..., :2] = params[..., :2] mod period`` (float32; ``out`` (n, w, 2) C-contiguous):
-    texture coordinates of a periodic tile brought into ``[0, period)`` for ``cv2.remap``."""
+def wrap_coords(params, y0, x0, period, out):
+    """Texture coordinates of a periodic tile brought into ``[0, period)`` for ``cv2.remap``:
+    ``out[y, x] = params[y0 + y, x0 + x, :2] mod period`` (``out`` (n, w, 2) float32;
+    ``params`` (Hp, Wp, P) float32, both C-contiguous)."""
     n, w = out.shape[0], out.shape[1]
     p = np.float32(period)
     ip = np.float32(1.0 / period)
-    for y in range(n):
-        for x in range(w):
-            for k in range(2):
-                v = params[y, x, k]
-                out[y, x, k] = v - p * np.floor(v * ip)
-
+    hp, wp, np_ = params.shape
+    pf = params.reshape(hp * wp * np_)
+    of = out.reshape(n * w * 2)
+    for y in range(n):  # one row as flat slices: the loop vectorises
+        p0 = ((y0 + y) * wp + x0) * np_
+        pt = pf[p0:p0 + np_ * w]
+        ot = of[2 * w * y:2 * w * (y + 1)]
+        if np_ == 8:
+            for x in range(w):
+                a = pt[8 * x]
+                b = pt[8 * x + 1]
+                ot[2 * x] = a - p * np.floor(a * ip)
+                ot[2 * x + 1] = b - p * np.floor(b * ip)
+        else:
+            for x in range(w):
+                for k in range(2):
+                    v = pt[np_ * x + k]
+                    ot[2 * x + k] = v - p * np.floor(v * ip)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_shade_sampled(out, tex, params, lut, gain, glint_col):
-    """Sea pixels from the wave texture already sampled at every pixel (an element-wise pass with
-    the arithmetic of :func:`sea_waves_grid`, without its texture look-ups).
+def sea_shade_sampled(out, tex, params, y0, x0, gain, glint_col):
+    """Sea pixels from the wave texture already sampled at every pixel: the arithmetic of
+    :func:`sea_waves_grid` without its texture look-ups, as an element-wise pass.
 
     Parameters
     ----------
-    out : (n, w, C) uint8
-        Written: the sea base colour plus wave shading and sun glints.
-    tex : (n, w, >= 2) uint8
-        Wave texture (shade, glint) at the pixels.
-    params : (n, w, 5) float32
-        Texture x, y (unused here), wave contrast, glint strength, and the row of the sea base
-        colour in ``lut`` (fractional: linear interpolation, clamped at the ends).
-    lut : (m, C) float32
-        Sea base colour by row.
+    out : (n, w, C) uint8, C-contiguous
+        Written: sea base colour plus wave shading plus sun glints.
+    tex : (n, w, 4) uint8, C-contiguous
+        Wave texture (shade, glint, -, -) at the pixels.
+    params : (Hp, Wp, P) float32, C-contiguous, P >= 4 + C
+        Per pixel ``(y0 + y, x0 + x)``: texture x, y (unused here), wave contrast, glint strength,
+        and the sea base colour (C channels); colour is fastest with P = 8.
     gain, glint_col : (C,) float32
     """
     n, w, c = out.shape
-    m = lut.shape[0]
-    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
-    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
+    wp = params.shape[1]
+    np_ = params.shape[2]
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
     zero = np.float32(0.0)
-    one = np.float32(1.0)
     c255 = np.float32(255.0)
+    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
+    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
+    of = out.reshape(n * w * c)
+    tf = tex.reshape(n * w * 4)
+    pf = params.reshape(params.shape[0] * wp * np_)
     for y in range(n):
-        for x in range(w):
-            am = params[y, x, 2]
-            g = max(params[y, x, 3], zero) * inv
-            ly = params[y, x, 4]
-            if ly <= 0.0:
-                i = 0
-                f = zero
-            elif ly >= m - 1:
-                i = m - 2 if m > 1 else 0
-                f = one if m > 1 else zero
-            else:
-                i = int(ly)
-                f = ly - np.float32(i)
-            i1 = i + 1 if m > 1 else i
-            d = (np.float32(tex[y, x, 0]) - c128) * am
-            gg = np.float32(tex[y, x, 1]) * g
-            if c == 3:  # unrolled (the colour case)
-                b0 = lut[i, 0] + f * (lut[i1, 0] - lut[i, 0]) + d * g0 + gg * l0 + half
-                b1 = lut[i, 1] + f * (lut[i1, 1] - lut[i, 1]) + d * g1 + gg * l1 + half
-                b2 = lut[i, 2] + f * (lut[i1, 2] - lut[i, 2]) + d * g2 + gg * l2 + half
-                out[y, x, 0] = np.uint8(int(min(max(b0, zero), c255)))
-                out[y, x, 1] = np.uint8(int(min(max(b1, zero), c255)))
-                out[y, x, 2] = np.uint8(int(min(max(b2, zero), c255)))
-                continue
-            for k in range(c):
-                v = lut[i, k] + f * (lut[i1, k] - lut[i, k]) + d * gain[k] + gg * glint_col[k] + half
-                out[y, x, k] = np.uint8(min(max(v, zero), c255))
+        o0 = y * w * c
+        t0 = y * w * 4
+        p0 = ((y0 + y) * wp + x0) * np_
+        if c == 3 and np_ == 8:  # one row as flat slices, constant strides: the loop vectorises
+            ot = of[o0:o0 + 3 * w]
+            tt = tf[t0:t0 + 4 * w]
+            pt = pf[p0:p0 + 8 * w]
+            for x in range(w):
+                d = (np.float32(tt[4 * x]) - c128) * pt[8 * x + 2]
+                gg = np.float32(tt[4 * x + 1]) * max(pt[8 * x + 3], zero) * inv
+                ot[3 * x] = np.uint8(int(min(max(pt[8 * x + 4] + d * g0 + gg * l0 + half, zero), c255)))
+                ot[3 * x + 1] = np.uint8(int(min(max(pt[8 * x + 5] + d * g1 + gg * l1 + half, zero), c255)))
+                ot[3 * x + 2] = np.uint8(int(min(max(pt[8 * x + 6] + d * g2 + gg * l2 + half, zero), c255)))
+        else:
+            for x in range(w):
+                q = p0 + np_ * x
+                d = (np.float32(tf[t0 + 4 * x]) - c128) * pf[q + 2]
+                gg = np.float32(tf[t0 + 4 * x + 1]) * max(pf[q + 3], zero) * inv
+                for k in range(c):
+                    v = pf[q + 4 + k] + d * gain[k] + gg * glint_col[k] + half
+                    of[o0 + c * x + k] = np.uint8(int(min(max(v, zero), c255)))

@@ -55,6 +55,7 @@ from seawatch.sim.world import World
 __all__ = ["RenderOptions", "RenderResult", "Renderer"]
 
 _GRID_PX = 16
+_LOD_TEXELS_PER_PX = 0.5  # the sea below the band is rendered at half width where a pixel spans <= this
 _TILE_PX = 128  # tiles of the swaying-camera panoramas (a multiple of _GRID_PX)
 _PANO_MAX_SPAN_DEG = 4.0  # pan/tilt range up to which a swaying camera renders from panoramas
 _PANO_OVERSAMPLE = 1.25  # panorama pixels per image pixel (at the image centre)
@@ -87,11 +88,13 @@ class RenderOptions:
     vessel_motion : bool
         Let vessels heave, roll and pitch in the waves.
     sea_half_res : bool or None
-        Render the wave shading of the water below the horizon/coast band at half resolution
-        (upsampled bilinearly; the sun glints stay at full resolution): the wave field there is
-        smooth at the pixel scale, and a moving camera must re-render it every frame.  None
-        chooses it for cameras that pan, tilt or zoom (not for fixed ones, whose animated sea is
-        cached, nor for swaying ones, which render from panoramas).
+        Range-dependent detail of the sea below the horizon/coast band: rows where one pixel spans
+        at most half a wave-texture texel across are rendered at half width and upscaled (one
+        sample per texel at most, so waves and glints keep their detail); the farther rows stay
+        at full resolution.  The wave texture is sampled there with ``cv2.remap`` and shaded in
+        an element-wise pass.  A moving camera re-renders its sea every frame, so None chooses it
+        for cameras that pan, tilt or zoom (not for fixed ones, whose animated sea is cached, nor
+        for swaying ones, which render from panoramas).
     """
 
     ir: bool = False
@@ -176,7 +179,8 @@ class _PanoLevel:
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache", "half_y0")
+    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache", "half_y0",
+                 "lod_y")
 
 
 class Renderer:
@@ -412,9 +416,9 @@ class Renderer:
         # band covers entirely are skipped)
         bg = np.empty((H, W, self.C), np.uint8)
         # half-width sea: rows from ys down are all water (below the band), rendered every frame
-        # by :meth:`_sea_half` with their sea base colour (so they need no coarse layer here)
+        # by :meth:`_sea_sampled` with their sea base colour (so they need no coarse layer here)
         ys = min(H, b1 + (b1 & 1)) if (self.sea_half_res and self.options.waves and r0_ < H) else H
-        view.half_y0 = ys
+        view.half_y0 = view.lod_y = ys
         mlo = up(s // 2, (min(-(-H // 2), (ys + 1) // 2 + 1), -(-W // 2)), (lox, loy))
         for y0, y1 in ((0, c0), (c1, ys)) if c1 > c0 and self._lo_skip_band else ((0, ys),):
             if y1 > y0:
@@ -427,8 +431,18 @@ class Renderer:
         view.hi_r0 = m0
         if r0_ < H:
             view.sea_r0 = r0_
-            chans = (tx, ty, amp, gl, loy) if ys < H else (tx, ty, amp, gl)  # (+ the sea base's row)
+            chans = [tx, ty, amp, gl]
+            if ys < H:  # + the sea base colour: the coarse panorama's elevation profile at loy
+                rows_lo = np.arange(len(self._sea_lut), dtype=np.float64)
+                chans += [np.interp(loy, rows_lo, self._sea_lut[:, k]) for k in range(self.C)]
+                chans += [tx] * (-len(chans) % 4)  # (padding: 8 channels vectorise better than 7)
             view.sea_grid = np.ascontiguousarray(np.stack(chans, axis=-1), np.float32)
+            # half width from the first pixel row below which every grid row has at most half a
+            # texel per pixel across (pixel row y interpolates grid rows i, i + 1 from the top)
+            step = np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)).max(axis=1) / s
+            fine = np.logical_and.accumulate((step <= _LOD_TEXELS_PER_PX)[::-1])[::-1]
+            k = int(np.argmax(fine)) if fine.any() else len(fine)
+            view.lod_y = min(H, max(ys, int(math.ceil((k - 0.5) * s - 0.5))))
         else:
             view.sea_r0 = 0
             view.sea_grid = None
@@ -658,41 +672,55 @@ class Renderer:
             sea_waves_grid(img[:ys], r0, view.sea_grid, _GRID_PX, tile, self._gain, self._glint_col,
                            view.hi_map, view.hi_r0, self._water_top_y)
         if ys < self.H:
-            self._sea_half(img, view, t_s)
+            self._sea_sampled(img, view, t_s)
         nb = img[r0:].nbytes
         if cache is not None and self._cache_bytes + nb <= self.sea_cache_mb * 1e6:
             cache[fi] = img[r0:].copy()
             self._cache_bytes += nb
         return img
 
-    def _sea_half(self, img: np.ndarray, view: _View, t_s: float) -> None:
-        """Rows ``view.half_y0 ..`` (all water, below the horizon band) at half the horizontal
-        resolution: the wave parameters and the sea base's row in the coarse panorama interpolated
-        from the grid, the wave texture sampled with one ``cv2.remap`` (coordinates wrapped into
-        the tile), shading and glints in one element-wise pass, then upscaled along the rows.
-        The sea's texture is magnified along the rows (a pixel spans centimetres to decimetres
-        across, against metres in depth), so its detail survives; the columns keep full
-        resolution.  Below the horizon the coarse panorama depends on elevation only (no clouds),
-        so the sea base is a look-up of its first column."""
-        H, W, C, s = self.H, self.W, self.C, _GRID_PX
-        ys = view.half_y0
-        wh = -(-W // 2)
-        # grid sample (i, j) sits at image row (i - 0.5) * s - 0.5 and at column (j - 0.5) * s / 2 - 0.5
-        # of the half-width rows
+    def _sea_sampled(self, img: np.ndarray, view: _View, t_s: float) -> None:
+        """Rows ``view.half_y0 ..`` (all water, below the horizon band): the wave parameters and
+        the sea base's row in the coarse panorama interpolated from the grid, the wave texture
+        sampled with one ``cv2.remap`` (coordinates wrapped into the tile), shading and glints in
+        one element-wise pass.  Below the horizon the coarse panorama depends on elevation only
+        (no clouds), so the sea base colour is its first column's profile, evaluated at the grid
+        samples and interpolated with the other wave parameters.
+
+        Range-dependent detail: from row ``view.lod_y`` down, where one image pixel spans at most
+        half a texel across (the texture is magnified along the rows; it is foreshortened along
+        the columns, which keep full resolution), the rows are rendered at half width and
+        upscaled: one sample per texel at most, so the texture (glints included) keeps its detail.
+        The rows above, where the texture is minified, are rendered at full resolution."""
+        ys, yl, H = view.half_y0, view.lod_y, self.H
+        if yl > ys:
+            self._sea_rows(img, view, t_s, ys, yl, half=False)
+        if H > yl:
+            self._sea_rows(img, view, t_s, yl, H, half=True)
+
+    def _sea_rows(self, img: np.ndarray, view: _View, t_s: float, y0: int, y1: int, half: bool) -> None:
+        """Water rows ``y0 .. y1`` of ``img`` (see :meth:`_sea_sampled`), at full or half width."""
+        W, C, s = self.W, self.C, _GRID_PX
+        sx = s // 2 if half else s
+        w = -(-W // 2) if half else W
+        # grid sample (i, j) sits at image row (i - 0.5) * s - 0.5 and at column (j - 0.5) * sx - 0.5
+        # of the rows rendered (w pixels wide)
         grid = view.sea_grid
-        i0 = max(0, (ys + s // 2) // s - 1)
-        sub = grid[i0:]
-        big = cv2.resize(sub, (grid.shape[1] * (s // 2), sub.shape[0] * s), interpolation=cv2.INTER_LINEAR)
-        y0 = ys - s * i0 + s
-        par = big[y0:y0 + H - ys, s // 2:s // 2 + wh]
-        maps = np.empty(par.shape[:2] + (2,), np.float32)
+        i0 = max(0, (y0 + s // 2) // s - 1)
+        sub = grid[i0:min(grid.shape[0], (y1 + s) // s + 2)]
+        big = cv2.resize(sub, (grid.shape[1] * sx, sub.shape[0] * s), interpolation=cv2.INTER_LINEAR)
+        yb = y0 - s * i0 + s  # big[yb + y, sx + x] is pixel (y0 + y, x) of the rows rendered
+        maps = np.empty((y1 - y0, w, 2), np.float32)
         tile4 = self._wave_tile4(t_s)
-        wrap_coords(par, tile4.shape[0] - 1, maps)
+        wrap_coords(big, yb, sx, tile4.shape[0] - 1, maps)
         tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
-        rows = np.empty((H - ys, wh, C), np.uint8)
-        sea_shade_sampled(rows, tex, par, self._sea_lut, self._gain, self._glint_col)
-        wide = cv2.resize(rows, (2 * wh, H - ys), interpolation=cv2.INTER_LINEAR)
-        img[ys:H] = wide[:, :W].reshape(H - ys, W, C)
+        if not half:
+            sea_shade_sampled(img[y0:y1], tex, big, yb, sx, self._gain, self._glint_col)
+            return
+        rows = np.empty((y1 - y0, w, C), np.uint8)
+        sea_shade_sampled(rows, tex, big, yb, sx, self._gain, self._glint_col)
+        wide = cv2.resize(rows, (2 * w, y1 - y0), interpolation=cv2.INTER_LINEAR)
+        img[y0:y1] = wide[:, :W].reshape(y1 - y0, W, C)
 
     def _wave_tile4(self, t_s: float) -> np.ndarray:
         """The wave texture of ``t_s`` as a (T + 1, T + 1, 4) uint8 tile (shade, glint, 0, 0) with
