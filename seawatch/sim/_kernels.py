@@ -407,3 +407,22 @@ def sea_shade_sampled(out, tex, params, y0, x0, gain, glint_col):
                 for k in range(c):
                     v = pf[q + 4 + k] + d * gain[k] + gg * glint_col[k] + half
                     of[o0 + c * x + k] = np.uint8(int(min(max(v, zero), c255)))
+
+
+@numba.njit(cache=True, nogil=True)
+def last_dry_row(hi_map, water_top_y):
+    """The last row of ``hi_map`` holding a pixel that is not water (see :func:`sea_waves`), or -1:
+    every row below it is all water.  Scans from the bottom and stops at the first dry pixel."""
+    h = hi_map.shape[0]
+    w = hi_map.shape[1]
+    nwt = water_top_y.shape[0]
+    for y in range(h - 1, -1, -1):
+        for x in range(w):
+            xi = int(hi_map[y, x, 0])
+            if xi < 0:
+                xi = 0
+            elif xi >= nwt:
+                xi = nwt - 1
+            if hi_map[y, x, 1] <= water_top_y[xi]:
+                return y
+    return -1

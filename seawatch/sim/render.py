@@ -38,6 +38,7 @@ from seawatch.sim._kernels import (
     blend_reflection,
     fill_polys,
     first_water_rows,
+    last_dry_row,
     sea_shade_sampled,
     sea_waves_grid,
     wrap_coords,
@@ -47,6 +48,7 @@ from seawatch.sim.texture import (
     Panorama,
     SkySpec,
     WaveField,
+    _sky_sea_column,
     build_panorama,
     periodic_noise,
 )
@@ -271,7 +273,12 @@ class Renderer:
         # colour panoramas resampled as 4 channels (OpenCV's remap has a fast path for 4, not 3;
         # the pixels are the same to the last bit), converted back with cvtColor
         self._lo_src = _bgra(self.pano.lo)
-        self._sea_lut = np.ascontiguousarray(self.pano.lo[:, 0, :], np.float32)  # (rows, C)
+        # the sea's base colour by row of the coarse panorama (below the horizon it depends on the
+        # elevation only), evaluated as sea even in the rows that straddle the horizon
+        p = self.pano
+        el_lo = p.el_max - (np.arange(p.lo.shape[0]) + 0.5) / p.ppd_lo
+        col = _sky_sea_column(np.minimum(el_lo, self.horizon_el - 1e-9), self.horizon_el, sky, options.ir)
+        self._sea_lut = np.floor(np.clip(col, 0, 255)).astype(np.float32)  # whole levels, as the panoramas
         self._hi_src = _bgra(self.pano.hi)
         wt = self.pano.water_top_deg
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
@@ -415,17 +422,26 @@ class Renderer:
         # coarse sky / sea / clouds: smooth, so resampled at half resolution and upscaled (rows the
         # band covers entirely are skipped)
         bg = np.empty((H, W, self.C), np.uint8)
-        # half-width sea: rows from ys down are all water (below the band), rendered every frame
-        # by :meth:`_sea_sampled` with their sea base colour (so they need no coarse layer here)
-        ys = min(H, b1 + (b1 & 1)) if (self.sea_half_res and self.options.waves and r0_ < H) else H
+        # moving cameras: rows from ys down are all water (below the band, or below the band's
+        # last row with a dry pixel), rendered every frame by :meth:`_sea_sampled` with their sea
+        # base colour, so they need neither the coarse layer nor the band here
+        ys = H
+        if self.sea_half_res and self.options.waves and r0_ < H:
+            ys = b1
+            if b1 > m0:
+                # (two rows of margin: the band's bilinear taps there still blend in the horizon or
+                # the shore, which the band remap anti-aliases)
+                ys = min(b1, max(r0_, m0 + last_dry_row(hi_map, self._water_top_y) + 3))
         view.half_y0 = view.lod_y = ys
         mlo = up(s // 2, (min(-(-H // 2), (ys + 1) // 2 + 1), -(-W // 2)), (lox, loy))
-        for y0, y1 in ((0, c0), (c1, ys)) if c1 > c0 and self._lo_skip_band else ((0, ys),):
+        for y0, y1 in ((0, c0), (c1, H)) if c1 > c0 and self._lo_skip_band else ((0, H),):
+            y1 = min(y1, ys)
             if y1 > y0:
                 self._lo_rows(bg, mlo, y0, y1)
         bg[ys:] = 0
-        if band_maps is not None:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
-            _remap_into(bg[b0:b1], self._hi_src, band_maps)
+        bb = min(b1, ys)
+        if band_maps is not None and bb > b0:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
+            _remap_into(bg[b0:bb], self._hi_src, band_maps[:bb - b0])
         view.bg = bg
         view.hi_map = hi_map
         view.hi_r0 = m0
