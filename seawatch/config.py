@@ -122,6 +122,7 @@ class TrackerSettings:
     sf_radius_px: float = 50.0  # largest distance of a graph edge
     sf_max_keypoints: int = 200  # keypoints described per frame (SIFT cost)
     sf_min_speed_px_s: float = 1.5  # slower feature velocities count as static
+    sf_horizon: str = "camera"  # camera | detect | auto | off: where the water is (docs/stable_features.md)
 
 
 @dataclass(frozen=True)

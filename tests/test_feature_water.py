@@ -206,3 +206,20 @@ def test_relink_follows_a_lost_boat_with_its_own_velocity():
         ids[predict] = (first, int(tr.ids[0]))
     assert ids[True][0] == ids[True][1]  # predicted with its velocity: the same identity
     assert ids[False][0] != ids[False][1]  # where it was lost: 44 px away, a new identity
+
+
+def test_horizon_mode_comes_from_the_settings_and_a_bad_one_is_named():
+    from seawatch.config import load_config
+
+    cam = CameraModel(Intrinsics.from_fov(50.0, W, H),
+                      CameraPose(lat_deg=50.8, lon_deg=-1.1, height_m=20.0, pan_deg=180.0, tilt_deg=-2.0))
+    off = StableFeatureTracker.from_settings(load_config(overrides=["tracker.sf_horizon=off"]).tracker, camera=cam)
+    off.process(Frame(np.full((H, W), 120, np.uint8), 0.0, 0, ptz=PTZState(0.0, 180.0, -2.0, 1.0)))
+    assert off.last_horizon is None
+    on = StableFeatureTracker.from_settings(load_config().tracker, camera=cam)
+    on.process(Frame(np.full((H, W), 120, np.uint8), 0.0, 0, ptz=PTZState(0.0, 180.0, -2.0, 1.0)))
+    assert on.last_horizon is not None
+    import pytest
+
+    with pytest.raises(ValueError, match="horizon"):
+        StableFeatureTracker.from_settings(load_config(overrides=["tracker.sf_horizon=sky"]).tracker)

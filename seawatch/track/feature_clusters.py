@@ -884,7 +884,7 @@ class StableFeatureTracker:
             radius_px=float(getattr(settings, "sf_radius_px", 50.0)),
             min_speed_px_s=float(getattr(settings, "sf_min_speed_px_s", 1.5)),
         )
-        return cls(ext, params, camera=camera)
+        return cls(ext, params, camera=camera, horizon=str(getattr(settings, "sf_horizon", "camera")))
 
     def reset(self) -> None:
         self.extractor.reset()
