@@ -426,17 +426,19 @@ def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     rng = np.random.default_rng(2)
     step, H, W = 16, 96, 80
     gh, gw = -(-H // step) + 2, -(-W // step) + 2
-    grid = np.empty((gh, gw, 7), np.float32)
+    grid = np.empty((gh, gw, 4), np.float32)
     grid[..., 0] = rng.uniform(-3000, 3000, (gh, gw))
     grid[..., 1] = rng.uniform(-3000, 3000, (gh, gw))
     grid[..., 2] = rng.uniform(0, 1.3, (gh, gw))
     grid[..., 3] = rng.uniform(0, 1, (gh, gw))
     colour = np.array([120.0, 90.0, 60.0], np.float32)
-    grid[..., 4:] = colour  # the sea base colour
+    base_grid = np.zeros((gh, gw, 4), np.float32)
+    base_grid[..., :3] = colour  # the sea base colour (and padding)
     tile = rng.integers(0, 256, (64, 64, 2), dtype=np.uint8)
     tile4 = np.zeros((65, 65, 4), np.uint8)
     tile4[:, :, :2] = np.pad(tile, ((0, 1), (0, 1), (0, 0)), mode="wrap")
     big = cv2.resize(grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
+    base_big = cv2.resize(base_grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
     maps = np.empty((H, W, 2), np.float32)
     wrap_coords(big, step, step, 64, maps)  # pixel (y, x) is big[step + y, step + x]
     assert maps.min() >= 0 and maps.max() < 64
@@ -447,17 +449,16 @@ def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     gain = np.array([0.5, 0.55, 0.6], np.float32)
     glint = np.array([255.0, 255.0, 250.0], np.float32)
     a, b = base.copy(), np.zeros_like(base)
-    sea_waves_grid(a, 0, np.ascontiguousarray(grid[..., :4]), step, tile, gain, glint,
-                   np.zeros((0, W, 2), np.float32), 0, np.full(4, -1.0, np.float32))
+    sea_waves_grid(a, 0, grid, step, tile, gain, glint, np.zeros((0, W, 2), np.float32), 0,
+                   np.full(4, -1.0, np.float32))
     tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
-    sea_shade_sampled(b, tex, big, step, step, gain, glint)
+    sea_shade_sampled(b, tex, big, base_big, step, step, gain, glint)
     d = np.abs(a.astype(int) - b.astype(int))
     assert (a != base).mean() > 0.5
     assert d.max() <= 1 and d.mean() < 0.2
     # one channel (IR) takes the same arithmetic
-    g1 = np.ascontiguousarray(big[..., :5])
     c = np.zeros((H, W, 1), np.uint8)
-    sea_shade_sampled(c, tex, g1, step, step, gain[:1], glint[:1])
+    sea_shade_sampled(c, tex, big, base_big, step, step, gain[:1], glint[:1])
     assert np.array_equal(c[..., 0], b[..., 0])
 
 

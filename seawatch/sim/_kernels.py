@@ -332,32 +332,26 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
 def wrap_coords(params, y0, x0, period, out):
     """Texture coordinates of a periodic tile brought into ``[0, period)`` for ``cv2.remap``:
     ``out[y, x] = params[y0 + y, x0 + x, :2] mod period`` (``out`` (n, w, 2) float32;
-    ``params`` (Hp, Wp, P) float32, both C-contiguous)."""
+    ``params`` (Hp, Wp, 4) float32, both C-contiguous)."""
     n, w = out.shape[0], out.shape[1]
     p = np.float32(period)
     ip = np.float32(1.0 / period)
-    hp, wp, np_ = params.shape
-    pf = params.reshape(hp * wp * np_)
+    hp, wp = params.shape[0], params.shape[1]
+    pf = params.reshape(hp * wp * 4)
     of = out.reshape(n * w * 2)
-    for y in range(n):  # one row as flat slices: the loop vectorises
-        p0 = ((y0 + y) * wp + x0) * np_
-        pt = pf[p0:p0 + np_ * w]
+    for y in range(n):  # one row as flat slices with constant strides: the loop vectorises
+        p0 = ((y0 + y) * wp + x0) * 4
+        pt = pf[p0:p0 + 4 * w]
         ot = of[2 * w * y:2 * w * (y + 1)]
-        if np_ == 8:
-            for x in range(w):
-                a = pt[8 * x]
-                b = pt[8 * x + 1]
-                ot[2 * x] = a - p * np.floor(a * ip)
-                ot[2 * x + 1] = b - p * np.floor(b * ip)
-        else:
-            for x in range(w):
-                for k in range(2):
-                    v = pt[np_ * x + k]
-                    ot[2 * x + k] = v - p * np.floor(v * ip)
+        for x in range(w):
+            a = pt[4 * x]
+            b = pt[4 * x + 1]
+            ot[2 * x] = a - p * np.floor(a * ip)
+            ot[2 * x + 1] = b - p * np.floor(b * ip)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_shade_sampled(out, tex, params, y0, x0, gain, glint_col):
+def sea_shade_sampled(out, tex, params, base, y0, x0, gain, glint_col):
     """Sea pixels from the wave texture already sampled at every pixel: the arithmetic of
     :func:`sea_waves_grid` without its texture look-ups, as an element-wise pass.
 
@@ -367,14 +361,13 @@ def sea_shade_sampled(out, tex, params, y0, x0, gain, glint_col):
         Written: sea base colour plus wave shading plus sun glints.
     tex : (n, w, 4) uint8, C-contiguous
         Wave texture (shade, glint, -, -) at the pixels.
-    params : (Hp, Wp, P) float32, C-contiguous, P >= 4 + C
-        Per pixel ``(y0 + y, x0 + x)``: texture x, y (unused here), wave contrast, glint strength,
-        and the sea base colour (C channels); colour is fastest with P = 8.
+    params, base : (Hp, Wp, 4) float32, C-contiguous
+        Per pixel ``(y0 + y, x0 + x)``: texture x, y (unused here), wave contrast and glint
+        strength; the sea base colour (C channels, then padding).
     gain, glint_col : (C,) float32
     """
     n, w, c = out.shape
-    wp = params.shape[1]
-    np_ = params.shape[2]
+    hp, wp = params.shape[0], params.shape[1]
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
@@ -384,29 +377,28 @@ def sea_shade_sampled(out, tex, params, y0, x0, gain, glint_col):
     l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
     of = out.reshape(n * w * c)
     tf = tex.reshape(n * w * 4)
-    pf = params.reshape(params.shape[0] * wp * np_)
-    for y in range(n):
-        o0 = y * w * c
-        t0 = y * w * 4
-        p0 = ((y0 + y) * wp + x0) * np_
-        if c == 3 and np_ == 8:  # one row as flat slices, constant strides: the loop vectorises
-            ot = of[o0:o0 + 3 * w]
-            tt = tf[t0:t0 + 4 * w]
-            pt = pf[p0:p0 + 8 * w]
+    pf = params.reshape(hp * wp * 4)
+    bf = base.reshape(hp * wp * 4)
+    for y in range(n):  # one row as flat slices with constant strides: the loop vectorises
+        p0 = ((y0 + y) * wp + x0) * 4
+        pt = pf[p0:p0 + 4 * w]
+        bt = bf[p0:p0 + 4 * w]
+        tt = tf[4 * w * y:4 * w * (y + 1)]
+        ot = of[c * w * y:c * w * (y + 1)]
+        if c == 3:
             for x in range(w):
-                d = (np.float32(tt[4 * x]) - c128) * pt[8 * x + 2]
-                gg = np.float32(tt[4 * x + 1]) * max(pt[8 * x + 3], zero) * inv
-                ot[3 * x] = np.uint8(int(min(max(pt[8 * x + 4] + d * g0 + gg * l0 + half, zero), c255)))
-                ot[3 * x + 1] = np.uint8(int(min(max(pt[8 * x + 5] + d * g1 + gg * l1 + half, zero), c255)))
-                ot[3 * x + 2] = np.uint8(int(min(max(pt[8 * x + 6] + d * g2 + gg * l2 + half, zero), c255)))
+                d = (np.float32(tt[4 * x]) - c128) * pt[4 * x + 2]
+                gg = np.float32(tt[4 * x + 1]) * max(pt[4 * x + 3], zero) * inv
+                ot[3 * x] = np.uint8(int(min(max(bt[4 * x] + d * g0 + gg * l0 + half, zero), c255)))
+                ot[3 * x + 1] = np.uint8(int(min(max(bt[4 * x + 1] + d * g1 + gg * l1 + half, zero), c255)))
+                ot[3 * x + 2] = np.uint8(int(min(max(bt[4 * x + 2] + d * g2 + gg * l2 + half, zero), c255)))
         else:
             for x in range(w):
-                q = p0 + np_ * x
-                d = (np.float32(tf[t0 + 4 * x]) - c128) * pf[q + 2]
-                gg = np.float32(tf[t0 + 4 * x + 1]) * max(pf[q + 3], zero) * inv
+                d = (np.float32(tt[4 * x]) - c128) * pt[4 * x + 2]
+                gg = np.float32(tt[4 * x + 1]) * max(pt[4 * x + 3], zero) * inv
                 for k in range(c):
-                    v = pf[q + 4 + k] + d * gain[k] + gg * glint_col[k] + half
-                    of[o0 + c * x + k] = np.uint8(int(min(max(v, zero), c255)))
+                    v = bt[4 * x + k] + d * gain[k] + gg * glint_col[k] + half
+                    ot[c * x + k] = np.uint8(int(min(max(v, zero), c255)))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -181,8 +181,8 @@ class _PanoLevel:
 class _View:
     """Per camera state: background, sea maps and helpers (cached)."""
 
-    __slots__ = ("bg", "sea_r0", "sea_grid", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache", "half_y0",
-                 "lod_y")
+    __slots__ = ("bg", "sea_r0", "sea_grid", "sea_base", "hi_map", "hi_r0", "water_row", "f_px", "sea_cache",
+                 "half_y0", "lod_y")
 
 
 class Renderer:
@@ -386,6 +386,7 @@ class Renderer:
             return _upsample_grid(np.stack(chans, axis=-1), gw, step, size, r0)
 
         view = _View()
+        view.sea_base = None
         view.f_px = f_px
         view.sea_cache = None
         # the sharp band around the horizon and the coast, at full resolution; rows above it hold
@@ -447,12 +448,12 @@ class Renderer:
         view.hi_r0 = m0
         if r0_ < H:
             view.sea_r0 = r0_
-            chans = [tx, ty, amp, gl]
-            if ys < H:  # + the sea base colour: the coarse panorama's elevation profile at loy
+            view.sea_grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
+            view.sea_base = None
+            if ys < H:  # the sea base colour: the coarse panorama's elevation profile at loy
                 rows_lo = np.arange(len(self._sea_lut), dtype=np.float64)
-                chans += [np.interp(loy, rows_lo, self._sea_lut[:, k]) for k in range(self.C)]
-                chans += [tx] * (-len(chans) % 4)  # (padding: 8 channels vectorise better than 7)
-            view.sea_grid = np.ascontiguousarray(np.stack(chans, axis=-1), np.float32)
+                base = [np.interp(loy, rows_lo, self._sea_lut[:, k]) for k in range(self.C)]
+                view.sea_base = np.ascontiguousarray(np.stack(base + [tx] * (4 - self.C), axis=-1), np.float32)
             # half width from the first pixel row below which every grid row has at most half a
             # texel per pixel across (pixel row y interpolates grid rows i, i + 1 from the top)
             step = np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)).max(axis=1) / s
@@ -723,18 +724,20 @@ class Renderer:
         # of the rows rendered (w pixels wide)
         grid = view.sea_grid
         i0 = max(0, (y0 + s // 2) // s - 1)
-        sub = grid[i0:min(grid.shape[0], (y1 + s) // s + 2)]
-        big = cv2.resize(sub, (grid.shape[1] * sx, sub.shape[0] * s), interpolation=cv2.INTER_LINEAR)
+        i1 = min(grid.shape[0], (y1 + s) // s + 2)
+        size = (grid.shape[1] * sx, (i1 - i0) * s)  # (4-channel resizes: OpenCV's fast path)
+        big = cv2.resize(grid[i0:i1], size, interpolation=cv2.INTER_LINEAR)
+        base = cv2.resize(view.sea_base[i0:i1], size, interpolation=cv2.INTER_LINEAR)
         yb = y0 - s * i0 + s  # big[yb + y, sx + x] is pixel (y0 + y, x) of the rows rendered
         maps = np.empty((y1 - y0, w, 2), np.float32)
         tile4 = self._wave_tile4(t_s)
         wrap_coords(big, yb, sx, tile4.shape[0] - 1, maps)
         tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
         if not half:
-            sea_shade_sampled(img[y0:y1], tex, big, yb, sx, self._gain, self._glint_col)
+            sea_shade_sampled(img[y0:y1], tex, big, base, yb, sx, self._gain, self._glint_col)
             return
         rows = np.empty((y1 - y0, w, C), np.uint8)
-        sea_shade_sampled(rows, tex, big, yb, sx, self._gain, self._glint_col)
+        sea_shade_sampled(rows, tex, big, base, yb, sx, self._gain, self._glint_col)
         wide = cv2.resize(rows, (2 * w, y1 - y0), interpolation=cv2.INTER_LINEAR)
         img[y0:y1] = wide[:, :W].reshape(y1 - y0, W, C)
 
