@@ -292,6 +292,7 @@ class Renderer:
         self._lo_skip_band = True  # skip the coarse layer where the sharp band covers whole rows
         self._views: OrderedDict[tuple, _View] = OrderedDict()
         self._tiles4: dict[int, np.ndarray] = {}
+        self._bufs: dict[str, np.ndarray] = {}
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
         # noise pools (static; a random offset per frame)
@@ -726,20 +727,33 @@ class Renderer:
         i0 = max(0, (y0 + s // 2) // s - 1)
         i1 = min(grid.shape[0], (y1 + s) // s + 2)
         size = (grid.shape[1] * sx, (i1 - i0) * s)  # (4-channel resizes: OpenCV's fast path)
-        big = cv2.resize(grid[i0:i1], size, interpolation=cv2.INTER_LINEAR)
-        base = cv2.resize(view.sea_base[i0:i1], size, interpolation=cv2.INTER_LINEAR)
+        # (the large temporaries go to buffers kept by the renderer: fresh pages cost as much as
+        # the arithmetic)
+        big = cv2.resize(grid[i0:i1], size, dst=self._buf("sea_par", (size[1], size[0], 4)),
+                         interpolation=cv2.INTER_LINEAR)
+        base = cv2.resize(view.sea_base[i0:i1], size, dst=self._buf("sea_base", (size[1], size[0], 4)),
+                          interpolation=cv2.INTER_LINEAR)
         yb = y0 - s * i0 + s  # big[yb + y, sx + x] is pixel (y0 + y, x) of the rows rendered
-        maps = np.empty((y1 - y0, w, 2), np.float32)
+        maps = self._buf("sea_maps", (y1 - y0, w, 2))
         tile4 = self._wave_tile4(t_s)
         wrap_coords(big, yb, sx, tile4.shape[0] - 1, maps)
-        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
+        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR, dst=self._buf("sea_tex", (y1 - y0, w, 4), np.uint8))
         if not half:
             sea_shade_sampled(img[y0:y1], tex, big, base, yb, sx, self._gain, self._glint_col)
             return
-        rows = np.empty((y1 - y0, w, C), np.uint8)
+        rows = self._buf("sea_rows", (y1 - y0, w, C), np.uint8)
         sea_shade_sampled(rows, tex, big, base, yb, sx, self._gain, self._glint_col)
         wide = cv2.resize(rows, (2 * w, y1 - y0), interpolation=cv2.INTER_LINEAR)
         img[y0:y1] = wide[:, :W].reshape(y1 - y0, W, C)
+
+    def _buf(self, name: str, shape: tuple, dtype=np.float32) -> np.ndarray:
+        """A C-contiguous scratch array of ``shape``, reused from call to call under ``name``
+        (its content is undefined; the caller overwrites it)."""
+        n = int(np.prod(shape))
+        b = self._bufs.get(name)
+        if b is None or b.size < n or b.dtype != np.dtype(dtype):
+            b = self._bufs[name] = np.empty(max(n, n + n // 4), dtype)
+        return b[:n].reshape(shape)
 
     def _wave_tile4(self, t_s: float) -> np.ndarray:
         """The wave texture of ``t_s`` as a (T + 1, T + 1, 4) uint8 tile (shade, glint, 0, 0) with
