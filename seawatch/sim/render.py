@@ -443,7 +443,7 @@ class Renderer:
         bg[ys:] = 0
         bb = min(b1, ys)
         if band_maps is not None and bb > b0:  # BORDER_TRANSPARENT: pixels off the band keep the coarse layer
-            _remap_into(bg[b0:bb], self._hi_src, band_maps[:bb - b0])
+            _remap_into(bg[b0:bb], self._hi_src, band_maps[:bb - b0], self._buf("band4", (bb - b0, W, 4), np.uint8))
         view.bg = bg
         view.hi_map = hi_map
         view.hi_r0 = m0
@@ -483,12 +483,15 @@ class Renderer:
         hh = mlo.shape[0]
         k0, k1 = max(0, y0 // 2 - 1), min(hh, (y1 + 1) // 2 + 1)
         lo = cv2.remap(self._lo_src, np.ascontiguousarray(mlo[k0:k1]), None, cv2.INTER_LINEAR,
+                       dst=self._buf("lo_half", (k1 - k0, mlo.shape[1], self._lo_src.shape[2] if self._lo_src.ndim == 3 else 1),
+                                     np.uint8).reshape((k1 - k0, mlo.shape[1]) + self._lo_src.shape[2:]),
                        borderMode=cv2.BORDER_REPLICATE)
         return _from_bgra(lo, self.C).reshape(k1 - k0, mlo.shape[1], self.C), k0
 
     def _lo_up(self, bg: np.ndarray, lo: np.ndarray, k0: int, wh: int, y0: int, y1: int) -> None:
         """Rows ``y0 .. y1`` of ``bg`` from half-resolution rows ``k0 ..`` (``lo``), upscaled twice."""
-        big = cv2.resize(lo, (2 * wh, 2 * lo.shape[0]), interpolation=cv2.INTER_LINEAR)
+        big = cv2.resize(lo, (2 * wh, 2 * lo.shape[0]), dst=self._buf("lo_up", (2 * lo.shape[0], 2 * wh, self.C), np.uint8),
+                         interpolation=cv2.INTER_LINEAR)
         bg[y0:y1] = big[y0 - 2 * k0:y1 - 2 * k0, :self.W].reshape(y1 - y0, self.W, self.C)
 
     # ------------------------------------------------------- swaying cameras: panoramas
@@ -1093,12 +1096,13 @@ def _from_bgra(img: np.ndarray, c: int) -> np.ndarray:
     return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR) if c == 3 else img
 
 
-def _remap_into(dst: np.ndarray, src: np.ndarray, maps: np.ndarray) -> None:
+def _remap_into(dst: np.ndarray, src: np.ndarray, maps: np.ndarray, scratch: np.ndarray | None = None) -> None:
     """``cv2.remap`` of ``src`` (BGRA or one channel) into the C-contiguous rows ``dst`` (H, W, C)
-    with ``BORDER_TRANSPARENT``: pixels that map outside ``src`` keep their value."""
+    with ``BORDER_TRANSPARENT``: pixels that map outside ``src`` keep their value (``scratch``: an
+    optional (H, W, 4) uint8 array for the BGRA rows)."""
     h, w, c = dst.shape
     if c == 3:
-        d4 = cv2.cvtColor(dst, cv2.COLOR_BGR2BGRA)
+        d4 = cv2.cvtColor(dst, cv2.COLOR_BGR2BGRA, dst=scratch)
         cv2.remap(src, maps, None, cv2.INTER_LINEAR, dst=d4, borderMode=cv2.BORDER_TRANSPARENT)
         cv2.cvtColor(d4, cv2.COLOR_BGRA2BGR, dst=dst)
         return
