@@ -322,3 +322,20 @@ def test_settings_are_chosen_on_the_select_on_sources_only(trained, tmp_path):
     assert json.loads(model.with_suffix(".json").read_text())["detector"] == out["detector"]
     with pytest.raises(ValueError, match="select_on"):
         choose_detector_settings(model, parts, select_on="video2", log=lambda m: None)
+
+
+def test_training_frames_keep_the_pinned_render_options():
+    """The simulator's training frames are drawn with the pinned options (byte-reproducible training)."""
+    from seawatch.sim import make_scenario
+    from seawatch.train.samples import TRAINING_RENDER_OPTIONS, load_sim
+
+    assert TRAINING_RENDER_OPTIONS == {"sea_half_res": False}
+    ims = load_sim(("pan",), frames_per_scenario=2)
+    scn = make_scenario("pan", seed=0)
+    pinned = scn.with_render_options(**TRAINING_RENDER_OPTIONS)
+    idx = [int(im.name.rsplit("_", 1)[1]) for im in ims]
+    assert len(idx) == 2
+    for im, i in zip(ims, idx):
+        assert np.array_equal(im.image, pinned.render(i).image)
+    # the renderer's own default for a zooming camera differs (half-width near water), so the pin matters
+    assert not np.array_equal(ims[-1].image, scn.render(idx[-1]).image)
