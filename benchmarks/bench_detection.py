@@ -326,6 +326,7 @@ def _profile(ctx, model, imgs, dataset, reps):
                    scale_factor=p.scale_factor, horizon_found_frames=found, n_frames=len(imgs))
     nst = casc.n_stages
     reach = np.zeros(nst + 1)
+    n_prof = len(small[:5])
     for g in small[:5]:
         f = 1.0
         while True:
@@ -341,6 +342,6 @@ def _profile(ctx, model, imgs, dataset, reps):
     stumps = np.array([len(st.feature) for st in casc.stages])
     evals = entering * stumps
     for k in range(nst):
-        ctx.record(dataset, f"profile:stage_{k:02d}", "windows_entering", entering[k] / 5, "windows/frame",
+        ctx.record(dataset, f"profile:stage_{k:02d}", "windows_entering", entering[k] / n_prof, "windows/frame",
                    share=float(entering[k] / entering[0]), stumps=int(stumps[k]),
                    stump_eval_share=float(evals[k] / evals.sum()))
