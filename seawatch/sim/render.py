@@ -95,8 +95,9 @@ class RenderOptions:
         sample per texel at most, so waves and glints keep their detail); the farther rows stay
         at full resolution.  The wave texture is sampled there with ``cv2.remap`` and shaded in
         an element-wise pass.  A moving camera re-renders its sea every frame, so None chooses it
-        for cameras that pan, tilt or zoom (not for fixed ones, whose animated sea is cached, nor
-        for swaying ones, which render from panoramas).
+        for cameras whose pan or tilt schedule spans more than the panorama range (``pan``); not
+        for fixed ones, whose animated sea is cached, for swaying ones, which render from
+        panoramas, nor for a camera that only zooms (its pan and tilt span 0).
     """
 
     ir: bool = False
