@@ -200,6 +200,13 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
     raise ConfigError(f"{where}: expected {_type_name(tp)}, got {type(value).__name__} {value!r}")
 
 
+# enumerated settings, checked when the configuration is read:
+# (section dataclass, key) -> (dotted name, allowed values)
+_CHOICES: dict[tuple[str, str], tuple[str, tuple[str, ...]]] = {
+    ("TrackerSettings", "sf_horizon"): ("tracker.sf_horizon", ("camera", "detect", "auto", "off")),
+}
+
+
 def _build(cls: type, data: dict, where: str) -> Any:
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -216,6 +223,9 @@ def _build(cls: type, data: dict, where: str) -> Any:
             kwargs[key] = _build(tp, value, f"{where} [{key}]")
         else:
             kwargs[key] = _coerce(value, tp, f"{where} [{cls.__name__}] key '{key}'")
+            choice = _CHOICES.get((cls.__name__, key))
+            if choice is not None and kwargs[key] not in choice[1]:
+                raise ConfigError(f"{where}: {choice[0]} = {kwargs[key]!r} is not one of {', '.join(choice[1])}")
     return cls(**kwargs)
 
 
@@ -225,7 +235,8 @@ def load_config(path: str | Path | None = None, overrides: list[str] | None = No
     Raises
     ------
     ConfigError
-        On a missing or unparsable file, an unknown key or a value of the wrong type.
+        On a missing or unparsable file, an unknown key, a value of the wrong type, or a value
+        outside an enumerated setting's allowed values (``tracker.sf_horizon``).
     """
     data: dict = {}
     where = "defaults"

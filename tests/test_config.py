@@ -73,3 +73,17 @@ def test_round_trip_through_dict():
     cfg = load_config(None, ["run.fps=12.5"])
     d = config_to_dict(cfg)
     assert d["run"]["fps"] == 12.5 and d["tracker"]["kind"] == "sort"
+
+
+def test_bad_enumerated_value_names_key_value_choices_and_file(tmp_path):
+    p = tmp_path / "settings.toml"
+    p.write_text("[tracker]\nsf_horizon = 'sky'\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(p)
+    msg = str(exc.value)
+    assert "settings.toml" in msg and "tracker.sf_horizon" in msg and "'sky'" in msg
+    assert all(v in msg for v in ("camera", "detect", "auto", "off"))
+    with pytest.raises(ConfigError, match=r"command line.*tracker.sf_horizon = 'Camera' is not one of"):
+        load_config(None, ["tracker.sf_horizon=Camera"])  # case matters
+    for good in ("camera", "detect", "auto", "off"):
+        assert load_config(None, [f"tracker.sf_horizon={good}"]).tracker.sf_horizon == good

@@ -221,5 +221,90 @@ def test_horizon_mode_comes_from_the_settings_and_a_bad_one_is_named():
     assert on.last_horizon is not None
     import pytest
 
-    with pytest.raises(ValueError, match="horizon"):
-        StableFeatureTracker.from_settings(load_config(overrides=["tracker.sf_horizon=sky"]).tracker)
+    from seawatch.config import ConfigError
+
+    # a bad value is refused when the settings are read (tests/test_config.py), and by the stage
+    with pytest.raises(ConfigError, match="tracker.sf_horizon = 'sky'"):
+        load_config(overrides=["tracker.sf_horizon=sky"])
+    with pytest.raises(ValueError, match="horizon must be auto, camera, detect or off, not 'sky'"):
+        StableFeatureTracker(camera=cam, horizon="sky")
+
+
+# ------------------------------------------------------ horizon from the camera
+def _rolled_camera(width=640, height=480):
+    """A camera with roll (a sloping horizon, so both line ends matter), at another size than the frames."""
+    return CameraModel(Intrinsics(600.0, 640.0, 300.0, 250.0, width, height),
+                       CameraPose(lat_deg=50.8, lon_deg=-1.1, height_m=25.0, pan_deg=90.0, tilt_deg=-1.5,
+                                  roll_deg=3.0))
+
+
+def test_camera_horizon_rescales_the_camera_to_a_frame_of_another_size():
+    from seawatch.track.feature_clusters import camera_horizon
+
+    cam = _rolled_camera()
+    ptz = PTZState(0.0, 95.0, -2.5, 1.6)
+    for w, h in ((320, 240), (352, 288), (640, 480)):  # sx = sy, sx != sy, the camera's own size
+        hz, zoom = camera_horizon(cam, Frame(np.zeros((h, w), np.uint8), 0.0, 0, ptz=ptz))
+        ref = cam.with_ptz(ptz).with_intrinsics(cam.with_ptz(ptz).intrinsics.scaled_to(w, h))
+        yl, yr = ref.horizon_line()
+        assert zoom == 1.6 and hz.width == w
+        assert abs(hz.y_left - yl) < 1e-9 and abs(hz.y_right - yr) < 1e-9
+        assert abs(float(hz.row_at(w - 1)) - float(ref.horizon_row(w - 1.0))) < 1e-9  # the end column is w - 1
+        assert abs(hz.y_right - hz.y_left) > 5  # the roll slopes the line
+    # at another size the line is the camera's own, rescaled (rows by the height ratio, half-pixel centres)
+    hz2, _ = camera_horizon(cam, Frame(np.zeros((288, 352), np.uint8), 0.0, 0, ptz=ptz))
+    full, _ = camera_horizon(cam, Frame(np.zeros((480, 640), np.uint8), 0.0, 0, ptz=ptz))
+    mid_full = float(full.row_at(319.5))  # the centre column of both images
+    assert abs(float(hz2.row_at(175.5)) - ((mid_full + 0.5) * 288 / 480 - 0.5)) < 0.05
+
+
+def test_camera_horizon_follows_the_frames_pose_without_ptz():
+    from dataclasses import replace
+
+    from seawatch.track.feature_clusters import camera_horizon
+
+    cam = _rolled_camera()
+    pose = replace(cam.pose, height_m=60.0, pan_deg=100.0, tilt_deg=-4.0, roll_deg=-2.0)
+    w, h = 352, 288
+    hz, zoom = camera_horizon(cam, Frame(np.zeros((h, w), np.uint8), 0.0, 0, pose=pose))
+    ref = CameraModel(cam.intrinsics.scaled_to(w, h), pose, cam.refraction_k)
+    yl, yr = ref.horizon_line()
+    assert zoom == 1.0
+    assert abs(hz.y_left - yl) < 1e-9 and abs(hz.y_right - yr) < 1e-9
+    # the pose moves the line: tilted further down and rolled the other way
+    base, _ = camera_horizon(cam, Frame(np.zeros((h, w), np.uint8), 0.0, 0))
+    assert hz.y_left < base.y_left - 10 and (hz.y_right - hz.y_left) * (base.y_right - base.y_left) < 0
+    # the PTZ state, when the frame has one, wins over the pose
+    ptz = PTZState(0.0, 90.0, -1.5, 1.0)
+    hz3, _ = camera_horizon(cam, Frame(np.zeros((h, w), np.uint8), 0.0, 0, pose=pose, ptz=ptz))
+    assert abs(hz3.y_left - base.y_left) < 1e-9
+
+
+def _sea_and_sky(row, seed=0):
+    """A bright sky above ``row`` and a darker, noisy sea below it."""
+    rng = np.random.default_rng(seed)
+    img = np.full((H, W), 200.0)
+    img[row:] = 90.0 + rng.normal(0, 6.0, (H - row, W))
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_detect_and_auto_find_the_horizon_in_the_image():
+    cam = CameraModel(Intrinsics.from_fov(50.0, W, H),
+                      CameraPose(lat_deg=50.8, lon_deg=-1.1, height_m=20.0, pan_deg=180.0, tilt_deg=-2.0))
+    img = _sea_and_sky(150)  # the camera model would put the horizon near row 140 - 2 deg
+    ptz = PTZState(0.0, 180.0, -2.0, 1.0)
+    from_cam = float(cam.horizon_row(0.0))
+    assert abs(from_cam - 150) > 20
+    for mode, camera in (("detect", cam), ("auto", None)):
+        trk = StableFeatureTracker(camera=camera, horizon=mode)
+        trk.process(Frame(img, 0.0, 0, ptz=ptz))
+        hz = trk.last_horizon
+        assert hz is not None, mode
+        assert abs(hz.y_left - 150) < 3 and abs(hz.y_right - 150) < 3, (mode, hz)
+    # auto with a camera takes the camera's line; camera mode without one has none
+    trk = StableFeatureTracker(camera=cam, horizon="auto")
+    trk.process(Frame(img, 0.0, 0, ptz=ptz))
+    assert abs(trk.last_horizon.y_left - from_cam) < 1e-6
+    trk = StableFeatureTracker(horizon="camera")
+    trk.process(Frame(img, 0.0, 0, ptz=ptz))
+    assert trk.last_horizon is None

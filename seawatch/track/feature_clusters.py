@@ -25,6 +25,7 @@ tracking in visible and thermal imagery", AVSS 2015.  The stable features of
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import cv2
@@ -792,7 +793,12 @@ class FeatureClusterer:
 
 def camera_horizon(camera, frame: Frame):
     """The sea horizon of a frame from a camera model at the frame's PTZ state (or pose), in the
-    frame's pixels, and the zoom factor: ``(Horizon or None, zoom)``."""
+    frame's pixels, and the zoom factor: ``(Horizon or None, zoom)``.
+
+    A camera model of another image size is first rescaled to the frame's (``Intrinsics.scaled_to``,
+    pixel-centre convention), so the line's ends are at the frame's columns 0 and ``width - 1``.
+    A frame's ``ptz`` takes precedence over its ``pose``; the pose replaces the model's whole pose
+    (position, height, pan, tilt, roll), as in the fuser."""
     from seawatch.detect.horizon import Horizon
 
     cam = camera
@@ -800,14 +806,15 @@ def camera_horizon(camera, frame: Frame):
     if frame.ptz is not None:
         cam = cam.with_ptz(frame.ptz)
         zoom = float(frame.ptz.zoom)
-    elif frame.pose is not None:
-        cam = cam.with_pose(pan_deg=frame.pose.pan_deg, tilt_deg=frame.pose.tilt_deg, roll_deg=frame.pose.roll_deg)
+    elif frame.pose is not None and frame.pose != cam.pose:
+        cam = cam.with_pose(**dataclasses.asdict(frame.pose))
     h, w = frame.shape
-    sx = w / float(cam.intrinsics.width)  # a camera model of another resolution
-    ends = np.asarray(cam.horizon_row(np.array([0.0, cam.intrinsics.width - 1.0])), np.float64) * sx
-    if not np.all(np.isfinite(ends)):
+    if (cam.intrinsics.width, cam.intrinsics.height) != (w, h):  # a camera model of another resolution
+        cam = cam.with_intrinsics(cam.intrinsics.scaled_to(w, h))
+    yl, yr = cam.horizon_line()
+    if not (np.isfinite(yl) and np.isfinite(yr)):
         return None, zoom
-    return Horizon(float(ends[0]), float(ends[1]), int(w), kind="sky"), zoom
+    return Horizon(float(yl), float(yr), int(w), kind="sky"), zoom
 
 
 class StableFeatureTracker:
