@@ -555,3 +555,37 @@ def test_sensor_noise_bank_sigma_and_frame_to_frame_change():
         assert abs(x.std() - bank.std()) < 0.1 and abs(x.mean()) < 0.1
     assert np.mean(n[0] == n[1]) < 0.5  # different noise in consecutive frames
     assert np.array_equal(noisy.render(4).image.astype(np.int16) - clean.render(4).image, n[0])
+
+
+@pytest.mark.parametrize("ir", [False, True], ids=["eo", "ir"])
+def test_moving_camera_sampled_sea_frames_any_order(ir):
+    """The moving camera's sampled sea keeps scratch buffers in the renderer across frames; frames
+    spread over the zoom (1x, 1.9x, 3.5x: different water rows, half-width and full-width parts),
+    rendered in reverse order with noise and JPEG on, equal the same frames of a fresh scenario
+    rendered forward, so nothing of one frame leaks into the next (EO and IR)."""
+    frames = (5, 21, 26)
+
+    def fresh():
+        s = make_scenario("pan", seed=0, width=704, height=576, duration_s=45.0, fps=1.0)
+        return s.with_render_options(ir=ir, noise_sigma=2.0, jpeg_quality=85)
+
+    a, b = fresh(), fresh()
+    assert a.renderer.sea_half_res and a.renderer.C == (1 if ir else 3)
+    zooms = [a.ptz_at(i).zoom for i in frames]
+    assert zooms[0] == 1.0 and 1.5 < zooms[1] < 3.0 and zooms[2] == pytest.approx(3.5)
+    fwd = [a.render(i).image for i in frames]
+    rev = [b.render(i).image for i in frames[::-1]][::-1]
+    for x, y in zip(fwd, rev):
+        assert x.shape == ((576, 704) if ir else (576, 704, 3))
+        assert np.array_equal(x, y)
+    assert not np.array_equal(fwd[0], fwd[1]) and not np.array_equal(fwd[1], fwd[2])
+    # the same frame again after the others (the buffers hold frame 5's rows) is unchanged, also
+    # with every scratch buffer overwritten by a value no frame computes (nothing read unwritten)
+    assert np.array_equal(b.render(21).image, fwd[1])
+    assert len(b.renderer._bufs) >= 3
+    for buf in b.renderer._bufs.values():
+        buf.fill(165 if buf.dtype == np.uint8 else -7777)
+    assert np.array_equal(b.render(26).image, fwd[2])
+    # noise is on: the same frame without sensor noise differs
+    quiet = a.with_render_options(noise_sigma=0.0).render(21).image
+    assert np.mean(quiet != fwd[1]) > 0.2
