@@ -222,3 +222,38 @@ def test_descriptors_on_a_smaller_copy_keep_full_resolution_positions():
     a, b = snaps[0].xy[snaps[0].stable], snaps[320].xy[snaps[320].stable]
     d = np.min(np.linalg.norm(a[:, None] - b[None], axis=2), axis=1)
     assert np.median(d) < 0.1
+
+
+def test_guided_matching_with_one_candidate_takes_the_second_distance_from_anywhere():
+    # three active features; the previous camera motion moves the image 5 px right
+    rng = np.random.default_rng(7)
+    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=8.0)
+    base = rng.uniform(0, 40, (4, 128)).astype(np.float32)  # on the scale of SIFT's
+    ext._xy = np.array([[20.0, 20.0], [100.0, 100.0], [104.0, 100.0], [200.0, 50.0]])
+    ext._desc = base.copy()
+    ext._h_prev = np.array([[1.0, 0, 5.0], [0, 1.0, 0], [0, 0, 1.0]])
+    act = np.array([0, 1, 2, 3])
+    q = np.stack([base[0] + 0.5, base[1] + 0.5, base[3], base[0]]).astype(np.float32)
+    kxy = np.array([[26.0, 21.0],  # one candidate (feature 0 expected at 25, 20)
+                    [107.0, 100.0],  # two candidates (features 1 and 2 expected at 105 and 109)
+                    [300.0, 300.0],  # none within 8 px
+                    [16.0, 20.0]])  # near feature 0's old position, 9 px from where it is expected
+    nn, dist = ext._guided(q, act, kxy, 8.0)
+    d2 = ((q[:, None, :] - base[None, :, :]) ** 2).sum(axis=2)
+    # one candidate: nearest is it, second is the nearest OTHER active feature anywhere
+    assert nn[0, 0] == 0 and nn[0, 1] == -1
+    assert dist[0, 0] == pytest.approx(d2[0, 0], rel=1e-5)
+    assert dist[0, 1] == pytest.approx(d2[0, 1:].min(), rel=1e-3)
+    # two candidates: both from within the radius, in order of descriptor distance
+    assert list(nn[1]) == [1, 2] and dist[1, 0] == pytest.approx(d2[1, 1], rel=1e-5)
+    assert dist[1, 1] == pytest.approx(d2[1, 2], rel=1e-5)
+    # none: no match
+    assert list(nn[2]) == [-1, -1] and np.isinf(dist[2]).all()
+    assert nn[3, 0] == -1  # guided by the camera motion, not the old positions
+    # the single candidate passes the quality test only when no look-alike exists anywhere
+    qi, si = ext._match(q[:1], act, kxy[:1], 8.0)
+    assert list(qi) == [0] and list(si) == [0]
+    ext._desc[3] = q[0] + 0.6  # a look-alike of feature 0 (quality 1 - 0.5 / 0.6 < 0.25), far outside the radius
+    dist2 = ext._guided(q[:1], act, kxy[:1], 8.0)[1]
+    assert dist2[0, 1] == pytest.approx(((q[0] - ext._desc[3]) ** 2).sum(), rel=1e-3)
+    assert len(ext._match(q[:1], act, kxy[:1], 8.0)[0]) == 0
