@@ -418,6 +418,8 @@ SCENARIO_SEEDS = (0, 1, 2, 3, 4)
 # the "no AIS" rule was developed looking at seeds 0-4; these seeds were never looked at before
 # their figures were recorded, so they say how the rule carries over
 HELDOUT_SEEDS = (5, 6, 7, 8, 9)
+#: seeds first run after session 11's ambiguity rule, which held-out seed 8 motivated
+HELDOUT2_SEEDS = (10, 11, 12, 13, 14)
 
 
 def _bench_scenarios(ctx) -> None:
@@ -433,7 +435,8 @@ def _bench_scenarios(ctx) -> None:
             ("harbour", False, 15.0, 0.0), ("harbour", True, 0.0, 300.0), ("harbour", False, 0.0, 300.0),
             ("open_sea", True, 0.0, 0.0), ("open_sea", False, 0.0, 0.0)]
     if not ctx.quick:  # harbour at a cold start on the held-out seeds
-        runs += [("harbour", True, 0.0, 0.0, HELDOUT_SEEDS), ("harbour", False, 0.0, 0.0, HELDOUT_SEEDS)]
+        runs += [("harbour", True, 0.0, 0.0, HELDOUT_SEEDS), ("harbour", False, 0.0, 0.0, HELDOUT_SEEDS),
+                 ("harbour", True, 0.0, 0.0, HELDOUT2_SEEDS), ("harbour", False, 0.0, 0.0, HELDOUT2_SEEDS)]
     for name, oracle, start, lead, *held in runs:
         method = ("gt_boxes+fusion" if oracle else "default_detector+tracker+fusion") + (
             f"_camera_from_{start:.0f}s" if start else "") + (f"_ais_live_{lead:.0f}s_before" if lead else "")
@@ -480,7 +483,9 @@ def _bench_scenarios(ctx) -> None:
             ctx.record(name, m, "correct_mmsi_frac_tracked", float(np.mean([res[k]["correct_mmsi_frac_tracked"]
                                                                             for k in res])), "fraction")
             ctx.record(name, m, "wrong_mmsi_frac", float(max(res[k]["wrong_mmsi_frac"] for k in res)), "fraction",
-                       target=0.02, aggregate="max over seeds")
+                       target=0.02, aggregate="max over seeds",
+                       per_seed=[round(res[k]["wrong_mmsi_frac"], 4) for k in sorted(res)],
+                       correct_per_seed=[round(res[k]["correct_mmsi_frac_tracked"], 4) for k in sorted(res)])
             if next(iter(res.values()))["spoofed"]:
                 sp = [res[k]["spoof_flag_delay_s"] for k in sorted(res)]
                 sp2 = [res[k]["spoof_flag_delay_after_first_spoofed_report_s"] for k in sorted(res)]

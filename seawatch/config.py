@@ -148,6 +148,7 @@ class FusionSettings:
     min_support_s: float = 2.0
     min_llr: float = 1.0
     switch_margin: float = 1.0
+    ambiguity_margin: float = 1.0  # a new MMSI label needs this mean-llr lead over any other free candidate (0: off)
     self_calibrate: bool = True
     calib_min_samples: int = 10
     calib_max_offset_deg: float = 5.0

@@ -364,6 +364,33 @@ def test_window_associator_hysteresis_and_support():
     assert out[0] == 101
 
 
+def test_window_associator_withholds_a_new_identity_while_two_targets_fit():
+    """Two AIS targets behind one camera track: no new identity until one clearly leads."""
+    keys = np.array([101, 102])
+    strict = WindowAssociator(window_s=5.0, gate=3.0, min_support_s=1.0, ambiguity_margin=1.0)
+    plain = WindowAssociator(window_s=5.0, gate=3.0, min_support_s=1.0, ambiguity_margin=0.0)
+    out_s = out_p = None
+    for k in range(12):  # 6 s with both targets on the track (102 a hair closer)
+        d2 = np.array([[0.6, 0.5]])
+        out_s, _ = strict.update(k * 0.5, np.array([7]), keys, d2)
+        out_p, _ = plain.update(k * 0.5, np.array([7]), keys, d2)
+        assert out_s[0] == 0
+    assert out_p[0] == 102  # without the rule the hair decides
+    for k in range(12, 40):  # 102 moves off the track (the crossing ends)
+        d2 = np.array([[0.5, 12.0]])
+        out_s, _ = strict.update(k * 0.5, np.array([7]), keys, d2)
+    assert out_s[0] == 101
+    # a target another track holds does not make the pair ambiguous
+    both = WindowAssociator(window_s=5.0, gate=3.0, min_support_s=1.0, ambiguity_margin=1.0)
+    for k in range(12):
+        out_b, _ = both.update(k * 0.5, np.array([7, 8]), keys, np.array([[0.5, 0.6], [8.0, 0.5]]))
+    assert list(out_b) == [101, 102]
+    # an identity already held is kept when a second target comes close (hysteresis, not ambiguity)
+    for k in range(40, 46):
+        out_s, _ = strict.update(k * 0.5, np.array([7]), keys, np.array([[0.5, 0.5]]))
+    assert out_s[0] == 101
+
+
 def test_no_ais_alert_once_per_vessel_and_not_for_fragments():
     rib = Vessel(1, 0, 700.0, -200.0, 0.0, 3.0, length_m=8.0)
     ship = Vessel(2, 235000061, 1500.0, 250.0, 0.0, -1.0, length_m=80.0)

@@ -304,16 +304,23 @@ class WindowAssociator:
     min_support_s : float, minimum observed time of a track before it gets an identity.
     switch_margin : float, llr bonus of the current assignment.
     forget_s : float, rows of tracks (columns of targets) unseen this long are dropped.
+    ambiguity_margin : float
+        A track takes a *new* identity only when its pair's mean llr leads every other candidate
+        of the track that no other track holds in this assignment by at least this much (two AIS
+        vessels behind one camera track, e.g. while one passes in front of the other, give it
+        none); an identity it already holds is kept (``switch_margin`` governs that).  0: off.
     """
 
     def __init__(self, window_s: float = 10.0, gate: float = 3.0, min_llr: float = 1.0,
-                 min_support_s: float = 2.0, switch_margin: float = 1.0, forget_s: float = 30.0):
+                 min_support_s: float = 2.0, switch_margin: float = 1.0, forget_s: float = 30.0,
+                 ambiguity_margin: float = 0.0):
         self.window_s = float(window_s)
         self.gate = float(gate)
         self.min_llr = float(min_llr)
         self.min_support_s = float(min_support_s)
         self.switch_margin = float(switch_margin)
         self.forget_s = float(forget_s)
+        self.ambiguity_margin = float(ambiguity_margin)
         self.rows: dict[int, int] = {}
         self.cols: dict[int, int] = {}
         self.row_ids = np.zeros(16, np.int64)
@@ -467,6 +474,19 @@ class WindowAssociator:
         ri, ci = linear_sum_assignment(-score)
         good = score[ri, ci] > -1e8
         ri, ci = ri[good], ci[good]
+        if self.ambiguity_margin > 0 and len(ri):
+            held = np.array([self.assigned.get(int(track_ids[i]), 0) for i in ri.tolist()], np.int64)
+            new = held != target_keys[ci]
+            if new.any():
+                # candidates of each row that no other row holds in this assignment
+                cand = np.where(ok, mean, -np.inf)[ri]
+                taken = np.zeros(m, bool)
+                taken[ci] = True
+                cand[:, taken] = -np.inf
+                runner = cand.max(axis=1) if m else np.full(len(ri), -np.inf)
+                clear = mean[ri, ci] - runner >= self.ambiguity_margin
+                keep = ~new | clear
+                ri, ci = ri[keep], ci[keep]
         for tid in track_ids.tolist():
             self.assigned.pop(tid, None)
         out[ri] = target_keys[ci]

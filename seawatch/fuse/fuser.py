@@ -184,7 +184,8 @@ class Fuser:
         self.ais = TargetTable(lat0, lon0, max_age_s=s.ais_max_age_s)
         self.vts = TargetTable(lat0, lon0, max_age_s=max(30.0, 3 * s.window_s))
         mk = lambda: WindowAssociator(s.window_s, s.gate_sigma, s.min_llr, s.min_support_s,  # noqa: E731
-                                      s.switch_margin, forget_s=max(30.0, 3 * s.window_s))
+                                      s.switch_margin, forget_s=max(30.0, 3 * s.window_s),
+                                      ambiguity_margin=s.ambiguity_margin)
         self.assoc = mk()
         self.angles = AngleHistory(s.rate_window_s if s.rate_window_s > 0 else 2.0)
         self.assoc_vts = mk()
