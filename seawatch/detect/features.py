@@ -400,6 +400,13 @@ class StableFeatureExtractor:
         glint nor the image's coastline takes it).  The rest of the image is searched as
         before.  Small far boats, which carry one or no keypoint otherwise, carry several.
         ``band_px`` 0 turns it off.
+    band_describe_upscaled : bool
+        Describe the band's keypoints on the upscaled copy instead of the band at the working
+        resolution (False; no better on the tuning seeds and about 10 ms slower per 640x480 frame).
+    band_min_size_px : float
+        Smallest descriptor window of a band keypoint, working-image pixels (before
+        ``band_describe_upscaled``'s upscaling): a band keypoint's size times
+        ``descriptor_scale`` is raised to at least this.  0 (default): its own size.
     scene_motion : bool
         When the horizon is given, fit the camera motion to the stable features above it (sky,
         coast) when there are enough of them, and to all stable features otherwise (not in the
