@@ -6,6 +6,19 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _above_water(hi_map, y, x, water_top_y):
+    """Whether pixel ``(y, x)`` of the band map ``hi_map`` lies at or above the water's top edge
+    (land or sky: not water); the map's panorama column is clamped into ``water_top_y``."""
+    nwt = water_top_y.shape[0]
+    xi = int(hi_map[y, x, 0])
+    if xi < 0:
+        xi = 0
+    elif xi >= nwt:
+        xi = nwt - 1
+    return hi_map[y, x, 1] <= water_top_y[xi]
+
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, hi_r0, water_top_y):
     """Add the animated wave shading and sun glints to the water pixels of ``out`` (in place).
@@ -32,7 +45,6 @@ def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, hi_r0, water_top_y):
     c = out.shape[2]
     hb = hi_map.shape[0]
     m = tile.shape[0] - 1
-    nwt = water_top_y.shape[0]
     one = np.float32(1.0)
     half = np.float32(0.5)
     c128 = np.float32(128.0)
@@ -46,12 +58,7 @@ def sea_waves(out, r0, maps, tile, gain, glint_col, hi_map, hi_r0, water_top_y):
                 continue
             yh = y - hi_r0
             if yh < hb:
-                xi = int(hi_map[yh, x, 0])
-                if xi < 0:
-                    xi = 0
-                elif xi >= nwt:
-                    xi = nwt - 1
-                if hi_map[yh, x, 1] <= water_top_y[xi]:
+                if _above_water(hi_map, yh, x, water_top_y):
                     continue
             fx = maps[yy, x, 0]
             fy = maps[yy, x, 1]
@@ -160,19 +167,13 @@ def first_water_rows(hi_map, water_top_y):
     Scans row by row (memory order) and stops once every column has found its water."""
     h = hi_map.shape[0]
     w = hi_map.shape[1]
-    nwt = water_top_y.shape[0]
     out = np.full(w, h, np.int64)
     left = w
     for y in range(h):
         for x in range(w):
             if out[x] < h:
                 continue
-            xi = int(hi_map[y, x, 0])
-            if xi < 0:
-                xi = 0
-            elif xi >= nwt:
-                xi = nwt - 1
-            if hi_map[y, x, 1] > water_top_y[xi]:
+            if not _above_water(hi_map, y, x, water_top_y):
                 out[x] = y
                 left -= 1
         if left == 0:
@@ -242,7 +243,6 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
     gw = grid.shape[1]
     hb = hi_map.shape[0]
     m = tile.shape[0] - 1
-    nwt = water_top_y.shape[0]
     one = np.float32(1.0)
     half = np.float32(0.5)
     c128 = np.float32(128.0)
@@ -279,12 +279,7 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
                 continue
             yh = y - hi_r0
             if yh < hb:
-                xi = int(hi_map[yh, x, 0])
-                if xi < 0:
-                    xi = 0
-                elif xi >= nwt:
-                    xi = nwt - 1
-                if hi_map[yh, x, 1] <= water_top_y[xi]:
+                if _above_water(hi_map, yh, x, water_top_y):
                     continue
             fx = row[j, 0] + b * drow[j, 0]
             fy = row[j, 1] + b * drow[j, 1]
@@ -407,14 +402,8 @@ def last_dry_row(hi_map, water_top_y):
     every row below it is all water.  Scans from the bottom and stops at the first dry pixel."""
     h = hi_map.shape[0]
     w = hi_map.shape[1]
-    nwt = water_top_y.shape[0]
     for y in range(h - 1, -1, -1):
         for x in range(w):
-            xi = int(hi_map[y, x, 0])
-            if xi < 0:
-                xi = 0
-            elif xi >= nwt:
-                xi = nwt - 1
-            if hi_map[y, x, 1] <= water_top_y[xi]:
+            if _above_water(hi_map, y, x, water_top_y):
                 return y
     return -1
