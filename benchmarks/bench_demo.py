@@ -55,7 +55,7 @@ def _run_demo(seed: int, det: str, trk: str, frames: int) -> dict:
     return {
         "HOTA": tr.get("HOTA", np.nan), "MOTA": tr.get("MOTA", np.nan), "IDF1": tr.get("IDF1", np.nan),
         "IDSW": tr.get("IDSW", np.nan), "det_F1": de.get("F1", np.nan),
-        "mmsi_correct": fu.get("mmsi_correct", np.nan),
+        "mmsi_correct": fu.get("mmsi_correct", np.nan), "mmsi_wrong": fu.get("mmsi_wrong", np.nan),
         "alerts": float(alerts if isinstance(alerts, (int, float)) else len(alerts or [])),
         "fps": summary.get("processing_fps", np.nan),
     }
@@ -77,7 +77,7 @@ def run(ctx) -> None:
                     break
             if len(rows) != len(seeds):
                 continue
-            for metric in ("HOTA", "MOTA", "IDF1", "IDSW", "det_F1", "mmsi_correct"):
+            for metric in ("HOTA", "MOTA", "IDF1", "IDSW", "det_F1", "mmsi_correct", "mmsi_wrong"):
                 vals = [r[metric] for r in rows]
                 ctx.record(f"harbour seeds {seeds[0]}-{seeds[-1]}", method, metric, float(np.mean(vals)), "",
                            per_seed=[round(float(v), 4) for v in vals])
@@ -98,5 +98,5 @@ def run(ctx) -> None:
     # the demo's own scene, reported for every combination (never used for the choice)
     for (det, trk) in combos:
         r = _run_demo(DEMO_SEED, det, trk, frames)
-        for metric in ("HOTA", "MOTA", "IDF1", "IDSW", "det_F1", "mmsi_correct", "alerts"):
+        for metric in ("HOTA", "MOTA", "IDF1", "IDSW", "det_F1", "mmsi_correct", "mmsi_wrong", "alerts"):
             ctx.record(f"harbour seed {DEMO_SEED} (demo)", f"{det}+{trk}", metric, float(r[metric]), "")

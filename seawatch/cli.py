@@ -167,7 +167,7 @@ def _demo_evaluation(gt: dict, out_dir: Path, fused: bool) -> dict:  # owner: pi
         # MMSI of the fused tracks vs the ground truth vessel they cover (IoU >= 0.5)
         from seawatch.track.sort import iou_matrix
 
-        right = wrong = 0
+        right = wrong = mislabelled = 0  # mislabelled: an MMSI that is not the vessel's (wrong also counts none)
         rows = [r for r in read_jsonl(out_dir / "tracks.jsonl") if r.get("state") == "confirmed"]
         for r in rows:
             if r["frame"] not in gt or not len(gt[r["frame"]][1]):
@@ -181,8 +181,10 @@ def _demo_evaluation(gt: dict, out_dir: Path, fused: bool) -> dict:  # owner: pi
                 right += 1
             elif r.get("mmsi", 0) != true_mmsi:
                 wrong += 1
+                mislabelled += int(r.get("mmsi", 0) != 0)
         if right + wrong:
-            res["fusion"] = {"mmsi_correct": right / (right + wrong), "track_frames": right + wrong}
+            res["fusion"] = {"mmsi_correct": right / (right + wrong), "mmsi_wrong": mislabelled / (right + wrong),
+                             "track_frames": right + wrong}
     return res
 
 
@@ -270,7 +272,8 @@ def _cmd_demo(args) -> int:  # owner: pipeline
         print(f"  detections: TPR {d['TPR']:.3f}  precision {d['precision']:.3f}  F1 {d['F1']:.3f}")
     f = evaluation.get("fusion")
     if f:
-        print(f"  fusion: MMSI correct on {100 * f['mmsi_correct']:.1f}% of matched track frames")
+        print(f"  fusion: MMSI correct on {100 * f['mmsi_correct']:.1f}% of matched track frames, "
+              f"a wrong MMSI on {100 * f.get('mmsi_wrong', 0.0):.1f}%")
     for note in summary.get("notes", [])[:5]:
         print(f"  note: {note}")
     print(f"  outputs in {out}/: annotated.mp4, tracks.csv, tracks.jsonl, detections.*, summary.json; scene in {scene_dir}/")

@@ -255,3 +255,27 @@ def test_unwritable_output_folder_fails_naming_it(tmp_path, video, capsys):
     assert main(["run", str(video), "--out", str(blocker), "--quiet"]) == EXIT_FAIL
     err = _err(capsys)
     assert "output folder" in err and "taken" in err and "Traceback" not in err
+
+
+def test_demo_evaluation_separates_wrong_labels_from_missing_ones(tmp_path):
+    """mmsi_correct counts frames labelled right; mmsi_wrong only frames carrying another vessel's MMSI."""
+    from seawatch.cli import _demo_evaluation
+
+    box_a, box_b = [10.0, 10.0, 20.0, 10.0], [100.0, 10.0, 20.0, 10.0]
+    gt = {1: (np.array([1, 2]), np.array([box_a, box_b]), np.array([111, 0])),
+          2: (np.array([1, 2]), np.array([box_a, box_b]), np.array([111, 0]))}
+    rows = [
+        {"frame": 1, "state": "confirmed", "id": 5, "box": box_a, "mmsi": 111},  # right
+        {"frame": 2, "state": "confirmed", "id": 5, "box": box_a, "mmsi": 0},  # not labelled
+        {"frame": 1, "state": "confirmed", "id": 6, "box": box_b, "mmsi": 0},  # no AIS, none given: not counted
+        {"frame": 2, "state": "confirmed", "id": 6, "box": box_b, "mmsi": 111},  # no AIS, labelled: wrong
+        {"frame": 2, "state": "tentative", "id": 7, "box": box_a, "mmsi": 999},  # not confirmed: ignored
+    ]
+    (tmp_path / "tracks.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+    res = _demo_evaluation(gt, tmp_path, fused=True)
+    if not res:
+        pytest.skip("seawatch.eval not available")
+    f = res["fusion"]
+    assert f["track_frames"] == 3  # the no-AIS vessel given none counts neither right nor wrong
+    assert f["mmsi_correct"] == pytest.approx(1 / 3)
+    assert f["mmsi_wrong"] == pytest.approx(1 / 3)
