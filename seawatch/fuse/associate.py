@@ -18,8 +18,8 @@ from scipy.optimize import linear_sum_assignment
 
 from seawatch.fuse.table import TargetStates
 
-__all__ = ["AngleHistory", "index_of", "TrackAngles", "TargetAngles", "track_angles", "waterline_px", "target_angles", "pair_distance2",
-           "angle_diff_deg", "WindowAssociator"]
+__all__ = ["AngleHistory", "index_of", "TrackAngles", "TargetAngles", "track_angles", "waterline_px", "target_angles",
+           "pair_distance2", "angle_diff_deg", "WindowAssociator"]
 
 
 def index_of(keys: np.ndarray, query) -> np.ndarray:
