@@ -454,6 +454,8 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--features-per-stage", type=int, default=6000, help="random Haar features tried per stage (6000)")
     p.add_argument("--max-positives", type=int, default=6000, help="most positive windows after augmentation (6000)")
     p.add_argument("--window", default="60x30", help="window WIDTHxHEIGHT in pixels (60x30)")
+    p.add_argument("--feature-step-px", type=int, default=2,
+                   help="grid of the Haar features' positions and sizes, pixels (2; 1 suits a 30x15 window)")
     p.add_argument("--time-budget-s", type=float, default=1800.0, help="stop adding stages after this many seconds")
     p.add_argument("--no-sim", action="store_true", help="do not use simulator frames")
     p.add_argument("--no-wake-stage", action="store_true", help="do not train the last wake stage")
@@ -486,8 +488,11 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         raise CLIError(f"--early-weak-counts {args.early_weak_counts!r}: expected integers like 4,8,16") from None
     if not 0.0 <= args.lowres_prob <= 1.0:
         raise CLIError(f"--lowres-prob {args.lowres_prob}: expected a probability in [0, 1]")
+    if args.feature_step_px < 1:
+        raise CLIError(f"--feature-step-px {args.feature_step_px}: at least 1")
     s = TrainSettings(
         early_weak_counts=early,
+        feature_pos_step_px=args.feature_step_px, feature_size_step_px=args.feature_step_px,
         width_px=ww, height_px=wh, n_stages=args.stages, min_hit_rate=args.min_hit_rate,
         max_false_alarm=args.max_false_alarm, max_weak_count=args.max_weak_count,
         features_per_stage=args.features_per_stage, max_positives=args.max_positives,
