@@ -174,10 +174,13 @@ class Fuser:
     def __init__(self, camera, settings: FusionSettings | None = None, ais=None, radar=None,
                  camera_id: str = "cam0"):
         self.settings = s = settings or FusionSettings()
-        for key in ("wake_s", "ais_warmup_s", "no_ais_dwell_s", "spoof_dwell_s", "ais_unseen_dwell_s"):
+        for key in ("wake_s", "ais_warmup_s", "no_ais_dwell_s", "spoof_dwell_s", "ais_unseen_dwell_s",
+                    "no_ais_unlocated_hold_s"):
             v = getattr(s, key, 0.0)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"[fusion] key '{key}': expected a finite number of seconds >= 0, got {v}")
+        if not (isinstance(s.no_ais_lost_reports, int) and 0 <= s.no_ais_lost_reports <= 10):
+            raise ValueError(f"[fusion] key 'no_ais_lost_reports': expected an integer 0-10, got {s.no_ais_lost_reports!r}")
         self.camera = camera
         self.camera_id = camera_id
         lat0, lon0 = camera.pose.lat_deg, camera.pose.lon_deg
@@ -223,6 +226,9 @@ class Fuser:
         # AIS clock time since which the AIS feed is live: the first report of a replay (a file may
         # begin later than the video), the first update of a live listener
         self._ais_since: float | None = None
+        # MMSIs heard only without a usable position (static data, or positions "not available"):
+        # MMSI -> (AIS-clock time first heard, class "A"/"B" from its message types)
+        self._heard: dict[int, tuple[float, str]] = {}
         self.frame_el_offset_deg = 0.0
         self._last = None
         if ais is not None:
@@ -318,6 +324,16 @@ class Fuser:
         reps = self._feed.release(t_ais)
         if reps:
             self.ais.add_reports(reps)
+            for r in reps:  # MMSIs heard without a usable position so far
+                if r.has_position:
+                    self._heard.pop(r.mmsi, None)
+                    continue
+                slot = self.ais.slot(r.mmsi)
+                if slot is not None and np.isfinite(self.ais.t[slot]):
+                    continue  # located before
+                first = self._heard.get(r.mmsi)
+                cls = "B" if r.msg_type in (18, 19, 24) or (first is not None and first[1] == "B") else "A"
+                self._heard[r.mmsi] = (float(r.t_s) if first is None else min(first[0], float(r.t_s)), cls)
             if self._ais_since is None:
                 self._ais_since = min(t_ais, min(r.t_s for r in reps))
         elif self._ais_since is None and self._feed.listeners:
@@ -665,6 +681,8 @@ class Fuser:
         # "no AIS" is claimed only when no AIS vessel heard could be this one (see _could_be: a
         # fragment of a long hull's box, or the upper part of a hull, is not a vessel without AIS)
         plausible = self._could_be(ta, st, tg) if len(ids) else np.zeros((0, len(st)), bool)
+        unlocated = self._unlocated(t_ais)
+        n_intervals = 1 + s.no_ais_lost_reports  # a lost report: the next one comes an interval later
         for tid in list(self._track_seen):
             if t - self._track_seen[tid] > 60.0:
                 for dct in (self._track_seen, self._first_conf, self._last_plausible, self._history, self._spoof_since):
@@ -733,9 +751,16 @@ class Fuser:
             # (at the lower bound of its speed: a slower vessel reports less often; the cross-range
             # speed, from the bearing rate, is a lower bound that a drifting box bottom does not inflate)
             speed, _, cross, cross_se = self.track_speed(tid, t_ais)
-            need_s = ais_report_interval_s(max(cross - 2.0 * cross_se, 0.0) if np.isfinite(cross_se) else np.nan, "A")
+            v_low = max(cross - 2.0 * cross_se, 0.0) if np.isfinite(cross_se) else np.nan
+            need_s = n_intervals * ais_report_interval_s(v_low, "A")
             live_s = -np.inf if self._ais_since is None else t_ais - self._ais_since
             if live_s < max(need_s + s.ais_latency_s, s.ais_warmup_s):
+                continue
+            # an AIS vessel heard without a position (static data only) could be this one until its
+            # position reports, at its class's rate for this speed and allowing for lost ones, are
+            # due -- for at most no_ais_unlocated_hold_s after it was first heard
+            if unlocated and any(t_ais < t0 + min(n_intervals * ais_report_interval_s(v_low, cls) + s.ais_latency_s,
+                                                  s.no_ais_unlocated_hold_s) for _, t0, cls in unlocated):
                 continue
             self._no_ais_alerted.add(tid)
             self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
@@ -747,11 +772,23 @@ class Fuser:
             need_b = ais_report_interval_s(speed, "B")
             msg += ")" if live_s >= need_b + s.ais_latency_s else (
                 f"; a class B transponder, reporting every {need_b:.0f} s, is not yet excluded)")
+            if unlocated:
+                msg += "; heard without a position: " + ", ".join(
+                    f"MMSI {m} (class {cls}, since {t_ais - t0:.0f} s)" for m, t0, cls in unlocated[:3]) + (
+                    f" and {len(unlocated) - 3} more" if len(unlocated) > 3 else "")
             out.append(self._alert(t, "no_ais", msg, tid, 0, world[i, 0], world[i, 1], ta.az_deg[i]))
         # -- AIS in view but not seen
         if len(st):
             out.extend(self._unseen_alerts(t, t_ais, dt, cam, tracks, ta, st, tg, keys, confirmed))
         return out
+
+    def _unlocated(self, t_ais: float) -> list[tuple[int, float, str]]:
+        """MMSIs heard (within ``ais_max_age_s``) that have no usable position yet:
+        ``(mmsi, AIS-clock time first heard, class "A"/"B")``, oldest first."""
+        if not self._heard:
+            return []
+        out = [(m, t0, cls) for m, (t0, cls) in self._heard.items() if 0.0 <= t_ais - t0 <= self.settings.ais_max_age_s]
+        return sorted(out, key=lambda x: x[1])
 
     def _could_be(self, ta: TrackAngles, st, tg) -> np.ndarray:
         """(N, M) whether AIS vessel j could be what camera track i shows (its hull, or part of it).
