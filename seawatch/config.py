@@ -155,8 +155,9 @@ class FusionSettings:
     theta0_deg: float = 15.0
     ais_unseen_dwell_s: float = 10.0
     ais_warmup_s: float = 0.0  # no "no AIS" alert before AIS has been received this long (besides the per-track rule)
-    no_ais_lost_reports: int = 1  # consecutive lost AIS position reports the "no AIS" rule tolerates before excluding a vessel
-    no_ais_unlocated_hold_s: float = 30.0  # an MMSI heard without a usable position holds "no AIS" alerts at most this long
+    no_ais_lost_reports: int = 1  # lost position reports of a class A MMSI heard without a position that "no AIS" waits for
+    no_ais_unlocated_hold_s: float = 30.0  # ... for at most this long after it was first heard
+    no_ais_unheard_lost_reports: int = 0  # lost first position reports of a vessel never heard that "no AIS" waits for
     no_ais_range_ratio: float = 1.5  # an AIS vessel within gate_deg and this range factor may be the camera's vessel
     min_vessel_length_m: float = 2.0  # tracks whose box implies a shorter vessel raise no "no AIS" alert
     wake_s: float = 10.0  # a track born on another vessel's trail of the last wake_s is its wake (0: off)

@@ -74,21 +74,33 @@ def test_warm_feed_flags_after_the_dwell():
     assert got == {8: pytest.approx(5.0, abs=0.21)}
 
 
-@pytest.mark.parametrize("msg_type, hold_s", [(5, 2 * 6.0 + 2.0), (24, 30.0)])
-def test_static_only_mmsi_holds_the_alert_then_releases_it_after_the_bound(msg_type, hold_s):
-    # an MMSI heard at 2 s through static data only, never located: it could be the RIB until its
-    # position reports are due -- class A at the RIB's speed every 6 s, one lost: 2 x 6 + 2 s
-    # latency; class B every 30 s, two intervals + latency = 62 s, cut to the 30 s bound
-    reps = WARM + [_static(235000002, 2.0, msg_type)]
+def test_static_only_mmsi_holds_the_alert_then_releases_it_after_the_bound():
+    # a class A MMSI heard at 2 s through static data only (message 5), never located: it could be
+    # the RIB until its position reports are due -- class A at the RIB's speed every 6 s, one of
+    # them lost: 2 x 6 + 2 s latency
+    reps = WARM + [_static(235000002, 2.0, 5)]
     got, msgs = _first_no_ais(FusionSettings(), reps, [RIB, FAR_SHIP])
-    assert got == {8: pytest.approx(2.0 + hold_s, abs=0.21)}
-    assert "MMSI 235000002" in msgs[0] and f"class {'B' if msg_type == 24 else 'A'}" in msgs[0]
+    assert got == {8: pytest.approx(2.0 + 2 * 6.0 + 2.0, abs=0.21)}
+    assert "MMSI 235000002 (class A" in msgs[0]
     # the bound is a setting
     got, _ = _first_no_ais(FusionSettings(no_ais_unlocated_hold_s=10.0), reps, [RIB, FAR_SHIP])
     assert got == {8: pytest.approx(12.0, abs=0.21)}
     # 0 turns the hold off: flagged after the dwell
     got, _ = _first_no_ais(FusionSettings(no_ais_unlocated_hold_s=0.0), reps, [RIB, FAR_SHIP])
     assert got == {8: pytest.approx(5.0, abs=0.21)}
+    # a slow camera vessel (class A every 3 min): the hold ends at the 30 s bound
+    slow = (8, 700.0, -250.0, 0.8, 12.0)
+    got, _ = _first_no_ais(FusionSettings(), reps, [slow, FAR_SHIP], t1=40.0)
+    assert got == {8: pytest.approx(32.0, abs=0.21)}
+
+
+def test_class_b_heard_without_a_position_is_named_but_not_waited_for():
+    # class B reports every 30 s; like a class B never heard, it is not waited for (class A is what
+    # a VTS must see), but the alert names it
+    reps = WARM + [_static(235000002, 2.0, 24)]
+    got, msgs = _first_no_ais(FusionSettings(), reps, [RIB, FAR_SHIP], t1=20.0)
+    assert got == {8: pytest.approx(5.0, abs=0.21)}
+    assert "MMSI 235000002 (class B" in msgs[0]
 
 
 def test_static_only_mmsi_stops_holding_once_located_elsewhere():
@@ -106,8 +118,11 @@ def test_static_first_then_a_lost_position_report_does_not_flag_the_ferry():
     ferry = [_static(235000003, 3.7)] + _reports(235000003, FERRY, np.arange(19.4, 60.0, 10.0))
     got, _ = _first_no_ais(FusionSettings(), cold + ferry, [FERRY, FAR_SHIP])
     assert got == {}
-    # without the static message (its first message lost): the lost-report allowance alone holds
+    # without the static message (a vessel never heard): by default one interval + latency after
+    # the feed went live, a false alert; tolerating a lost first report of unheard vessels holds it
     got, _ = _first_no_ais(FusionSettings(), cold + ferry[1:], [FERRY, FAR_SHIP])
+    assert got == {3: pytest.approx(12.6, abs=0.21)}
+    got, _ = _first_no_ais(FusionSettings(no_ais_unheard_lost_reports=1), cold + ferry[1:], [FERRY, FAR_SHIP])
     assert got == {}
     # the rule before: one interval + latency after the feed went live (12.5 s), then a false alert
     got, _ = _first_no_ais(FusionSettings(no_ais_lost_reports=0, no_ais_unlocated_hold_s=0.0),
@@ -123,18 +138,21 @@ def test_a_dropped_report_in_a_warm_feed_does_not_flag():
     assert got == {8: pytest.approx(5.0, abs=0.21)}
 
 
-@pytest.mark.parametrize("lost, expect_s", [(1, 0.5 + 2 * 6.0 + 2.0), (2, 0.5 + 3 * 6.0 + 2.0)])
-def test_a_silent_boat_is_flagged_within_the_bound_at_a_cold_start(lost, expect_s):
+@pytest.mark.parametrize("unheard_lost, expect_s", [(0, 0.5 + 6.0 + 2.0), (1, 0.5 + 2 * 6.0 + 2.0)])
+def test_a_silent_boat_is_flagged_within_the_bound_at_a_cold_start(unheard_lost, expect_s):
+    # the feed's first report at 0.5 s; the RIB (class A would report every 6 s) is flagged one
+    # interval (+ one per tolerated lost report) + 2 s latency later
     cold = _reports(235000001, FAR_SHIP, np.arange(0.5, 60.0, 10.0))
-    got, _ = _first_no_ais(FusionSettings(no_ais_lost_reports=lost), cold, [RIB, FAR_SHIP], t1=30.0)
+    s = FusionSettings(no_ais_unheard_lost_reports=unheard_lost)
+    got, _ = _first_no_ais(s, cold, [RIB, FAR_SHIP], t1=30.0)
     assert got == {8: pytest.approx(expect_s, abs=0.21)}
-    # with a class B heard without a position at 1 s and never located: at most 30 s after it
-    got, _ = _first_no_ais(FusionSettings(no_ais_lost_reports=lost), cold + [_static(235000009, 1.0, 24)],
-                           [RIB, FAR_SHIP], t1=40.0)
-    assert got == {8: pytest.approx(max(31.0, expect_s), abs=0.21)}
+    # with a class A heard without a position at 1 s and never located: 2 x 6 s + 2 s after it
+    got, _ = _first_no_ais(s, cold + [_static(235000009, 1.0, 5)], [RIB, FAR_SHIP], t1=40.0)
+    assert got == {8: pytest.approx(max(expect_s, 1.0 + 2 * 6.0 + 2.0), abs=0.21)}
 
 
+@pytest.mark.parametrize("key", ["no_ais_lost_reports", "no_ais_unheard_lost_reports"])
 @pytest.mark.parametrize("value", [-1, 1.5, 11])
-def test_invalid_lost_reports_setting_is_rejected(value):
-    with pytest.raises(ValueError, match="no_ais_lost_reports"):
-        Fuser(CAM, FusionSettings(no_ais_lost_reports=value))
+def test_invalid_lost_reports_setting_is_rejected(key, value):
+    with pytest.raises(ValueError, match=key):
+        Fuser(CAM, FusionSettings(**{key: value}))

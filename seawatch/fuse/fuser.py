@@ -179,8 +179,10 @@ class Fuser:
             v = getattr(s, key, 0.0)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"[fusion] key '{key}': expected a finite number of seconds >= 0, got {v}")
-        if not (isinstance(s.no_ais_lost_reports, int) and 0 <= s.no_ais_lost_reports <= 10):
-            raise ValueError(f"[fusion] key 'no_ais_lost_reports': expected an integer 0-10, got {s.no_ais_lost_reports!r}")
+        for key in ("no_ais_lost_reports", "no_ais_unheard_lost_reports"):
+            v = getattr(s, key)
+            if not (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 10):
+                raise ValueError(f"[fusion] key '{key}': expected an integer 0-10, got {v!r}")
         self.camera = camera
         self.camera_id = camera_id
         lat0, lon0 = camera.pose.lat_deg, camera.pose.lon_deg
@@ -683,6 +685,7 @@ class Fuser:
         plausible = self._could_be(ta, st, tg) if len(ids) else np.zeros((0, len(st)), bool)
         unlocated = self._unlocated(t_ais)
         n_intervals = 1 + s.no_ais_lost_reports  # a lost report: the next one comes an interval later
+        n_unheard = 1 + s.no_ais_unheard_lost_reports
         for tid in list(self._track_seen):
             if t - self._track_seen[tid] > 60.0:
                 for dct in (self._track_seen, self._first_conf, self._last_plausible, self._history, self._spoof_since):
@@ -747,20 +750,22 @@ class Fuser:
                 self._last_plausible[tid] = t  # a patch of another vessel's wake: not (yet) a vessel
                 continue
             # an AIS vessel never heard is excluded only once the feed has been live for the
-            # reporting interval of a (class A) vessel moving as this one does, plus the latency
+            # reporting interval of a (class A) vessel moving as this one does (one more per lost
+            # first report tolerated: no_ais_unheard_lost_reports), plus the latency
             # (at the lower bound of its speed: a slower vessel reports less often; the cross-range
             # speed, from the bearing rate, is a lower bound that a drifting box bottom does not inflate)
             speed, _, cross, cross_se = self.track_speed(tid, t_ais)
             v_low = max(cross - 2.0 * cross_se, 0.0) if np.isfinite(cross_se) else np.nan
-            need_s = n_intervals * ais_report_interval_s(v_low, "A")
+            need_s = n_unheard * ais_report_interval_s(v_low, "A")
             live_s = -np.inf if self._ais_since is None else t_ais - self._ais_since
             if live_s < max(need_s + s.ais_latency_s, s.ais_warmup_s):
                 continue
-            # an AIS vessel heard without a position (static data only) could be this one until its
-            # position reports, at its class's rate for this speed and allowing for lost ones, are
-            # due -- for at most no_ais_unlocated_hold_s after it was first heard
-            if unlocated and any(t_ais < t0 + min(n_intervals * ais_report_interval_s(v_low, cls) + s.ais_latency_s,
-                                                  s.no_ais_unlocated_hold_s) for _, t0, cls in unlocated):
+            # a class A vessel heard without a position (static data only) could be this one until
+            # its position reports, at the class A rate for this speed and allowing for lost ones,
+            # are due -- for at most no_ais_unlocated_hold_s after it was first heard.  Class B
+            # ones are named in the alert but not waited for (as in the interval rule above)
+            if unlocated and any(t_ais < t0 + min(n_intervals * ais_report_interval_s(v_low, "A") + s.ais_latency_s,
+                                                  s.no_ais_unlocated_hold_s) for _, t0, cls in unlocated if cls == "A"):
                 continue
             self._no_ais_alerted.add(tid)
             self._no_ais_last[tid] = (t, float(ta.e_m[i]), float(ta.n_m[i]))
