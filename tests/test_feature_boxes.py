@@ -136,3 +136,18 @@ def test_relink_memory_stays_bounded_in_a_long_run():
         fc._relink(snap, np.array([i + 1], np.int64), box)
     assert len(fc._known) < 200 and len(fc._alias) <= len(fc._known)
     assert 3000 in fc._known  # the latest identity is remembered
+
+
+def test_grow_box_same_on_8_bit_and_16_bit_copies_of_an_image():
+    """The 8-bit path (histogram medians) and the general path give the same boxes and contrast."""
+    rng = np.random.default_rng(7)
+    img = rng.normal(100.0, 4.0, (120, 160, 3))
+    img[50:62, 64:90] += 60.0  # a hull
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    boxes = np.array([[70.0, 52.0, 12.0, 6.0], [10.0, 10.0, 8.0, 8.0]])
+    a, ca = grow_boxes(img, boxes, boxes, return_contrast=True)
+    b, cb = grow_boxes(img.astype(np.uint16), boxes, boxes, return_contrast=True)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(ca, cb)
+    assert a[0, 0] <= 65 and a[0, 0] + a[0, 2] >= 89 and a[0, 1] <= 51  # grown to the hull
+    np.testing.assert_array_equal(a[1], boxes[1])  # plain noise: kept as it was

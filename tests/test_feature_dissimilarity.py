@@ -106,3 +106,19 @@ def test_frame_edges_min_speed_drops_static_features():
     assert set(zip(i.tolist(), j.tolist())) == {(0, 1), (0, 2), (1, 2), (1, 3), (2, 3)}
     i, j, _ = frame_edges(xy, hist, 0.31, 50.0, min_speed_px_s=5.0)
     assert set(zip(i.tolist(), j.tolist())) == {(2, 3)}
+
+
+def test_frame_edges_kernel_agrees_with_motion_dissimilarity():
+    """The compiled per-pair kernel used by frame_edges computes the public formula."""
+    from seawatch.track.feature_clusters import _pair_dissimilarity
+
+    rng = np.random.default_rng(3)
+    hist = rng.normal(0.0, 60.0, (40, 15, 2))
+    hist[rng.random((40, 15)) < 0.3] = np.nan
+    hist[5] = np.nan  # never seen: no common frame with anyone
+    i, j = np.triu_indices(40, 1)
+    for angle in (True, False):
+        ref = motion_dissimilarity(hist[i], hist[j], 3.0, 0.04, angle=angle)
+        got = _pair_dissimilarity(hist, i.astype(np.int64), j.astype(np.int64), 3.0, 0.04, angle)
+        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
+        assert np.all(got[(i == 5) | (j == 5)] == NO_COMMON_FRAME)

@@ -257,3 +257,26 @@ def test_guided_matching_with_one_candidate_takes_the_second_distance_from_anywh
     dist2 = ext._guided(q[:1], act, kxy[:1], 8.0)[1]
     assert dist2[0, 1] == pytest.approx(((q[0] - ext._desc[3]) ** 2).sum(), rel=1e-3)
     assert len(ext._match(q[:1], act, kxy[:1], 8.0)[0]) == 0
+
+
+def test_guided_best_two_picks_the_two_nearest_candidates():
+    from seawatch.detect.features import _best_two
+
+    rng = np.random.default_rng(5)
+    desc = rng.random((6, 128), dtype=np.float32)
+    stored = rng.random((10, 128), dtype=np.float32)
+    act = np.arange(10, dtype=np.int64)[::-1].copy()
+    qi = np.repeat(np.arange(5), 4).astype(np.int64)  # query 5 has no candidate
+    ai = np.concatenate([rng.choice(10, 4, replace=False) for _ in range(5)]).astype(np.int64)  # distinct pairs
+    nn = np.full((6, 2), -1, np.int64)
+    dist = np.full((6, 2), np.inf, np.float32)
+    _best_two(desc, stored, act, qi, ai, nn, dist)
+    for q in range(5):
+        cand = np.unique(ai[qi == q])
+        d2 = ((desc[q][None, :] - stored[act[cand]]) ** 2).sum(axis=1)
+        order = np.argsort(d2)
+        assert nn[q, 0] == cand[order[0]]
+        np.testing.assert_allclose(dist[q, 0], d2[order[0]], rtol=1e-5)
+        if len(cand) > 1:
+            assert nn[q, 1] == cand[order[1]]
+    assert nn[5, 0] == -1 and np.isinf(dist[5, 0])

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import cv2
+import numba as nb
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -205,6 +206,31 @@ class FeatureSnapshot:
 
     def __len__(self) -> int:
         return len(self.ids)
+
+
+@nb.njit(cache=True, nogil=True)
+def _best_two(desc, stored, act, qi, ai, nn, dist):
+    """Nearest and second-nearest candidate of each query among the pairs ``(qi, ai)``
+    (query row, index into ``act``), by squared descriptor distance (accumulated in float64);
+    ties go to the pair listed first.  Fills ``nn`` (-1: none) and ``dist`` (inf: none)."""
+    dim = desc.shape[1]
+    for k in range(len(qi)):
+        q = qi[k]
+        a = ai[k]
+        s = act[a]
+        acc = 0.0
+        for c in range(dim):
+            d = np.float64(desc[q, c]) - np.float64(stored[s, c])
+            acc += d * d
+        d2 = np.float32(acc)
+        if nn[q, 0] < 0 or d2 < dist[q, 0]:
+            nn[q, 1] = nn[q, 0]
+            dist[q, 1] = dist[q, 0]
+            nn[q, 0] = a
+            dist[q, 0] = d2
+        elif nn[q, 1] < 0 or d2 < dist[q, 1]:
+            nn[q, 1] = a
+            dist[q, 1] = d2
 
 
 def _apply_h(h: np.ndarray, xy: np.ndarray) -> np.ndarray:
@@ -716,21 +742,9 @@ class StableFeatureExtractor:
             return nn, dist
         qi = pairs["i"].astype(np.int64)
         ai = fin[pairs["j"].astype(np.int64)]
-        diff = desc[qi] - self._desc[act[ai]]
-        d2 = np.einsum("ij,ij->i", diff, diff)
-        srt = np.lexsort((d2, qi))
-        qs, as_, ds = qi[srt], ai[srt], d2[srt]
-        first = np.r_[True, qs[1:] != qs[:-1]]
-        fpos = np.flatnonzero(first)
-        nn[qs[fpos], 0] = as_[fpos]
-        dist[qs[fpos], 0] = ds[fpos]
-        second = fpos + 1
-        has2 = second < len(qs)
-        has2[has2] = qs[second[has2]] == qs[fpos[has2]]
-        nn[qs[fpos[has2]], 1] = as_[second[has2]]
-        dist[qs[fpos[has2]], 1] = ds[second[has2]]
+        _best_two(desc, self._desc, act, qi, ai, nn, dist)
         # one candidate: the second distance is to the nearest other active feature anywhere
-        one = qs[fpos[~has2]]
+        one = np.flatnonzero((nn[:, 0] >= 0) & (nn[:, 1] < 0))
         if len(one):
             a = self._desc[act]
             d2 = (np.einsum("ij,ij->i", desc[one], desc[one])[:, None] + np.einsum("ij,ij->i", a, a)[None, :]

@@ -29,6 +29,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import cv2
+import numba as nb
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -101,6 +102,39 @@ def motion_dissimilarity(
     return np.where(n > 0, d, NO_COMMON_FRAME)
 
 
+@nb.njit(cache=True, nogil=True)
+def _pair_dissimilarity(history, pi, pj, p_px, frame_interval_s, angle):
+    """:func:`motion_dissimilarity` of the pairs ``(history[pi], history[pj])`` without
+    gathering their histories (the same formula, sample by sample)."""
+    out = np.empty(len(pi))
+    nw = history.shape[1]
+    for e in range(len(pi)):
+        a, b = pi[e], pj[e]
+        n = 0
+        th = 0.0
+        lm = 0.0
+        for w in range(nw):
+            ax, ay = history[a, w, 0], history[a, w, 1]
+            bx, by = history[b, w, 0], history[b, w, 1]
+            if not (np.isfinite(ax) and np.isfinite(ay) and np.isfinite(bx) and np.isfinite(by)):
+                continue
+            n += 1
+            ang = abs(np.arctan2(ay, ax) - np.arctan2(by, bx))
+            th += min(ang, 2.0 * np.pi - ang) / np.pi
+            ma = np.hypot(ax, ay) * frame_interval_s
+            mb = np.hypot(bx, by) * frame_interval_s
+            fast = max(ma, mb)
+            if fast > 0:
+                lm += (1.0 / (1.0 + np.exp(p_px - fast))) * (1.0 - min(ma, mb) / fast)
+        if n == 0:
+            out[e] = NO_COMMON_FRAME
+        else:
+            t = th / n if angle else 0.0
+            m = lm / n
+            out[e] = np.sqrt(t * t + m * m)
+    return out
+
+
 def frame_edges(
     xy: np.ndarray, history: np.ndarray, dmax: float, radius_px: float, p_px: float = 3.0,
     frame_interval_s: float = 0.04, min_speed_px_s: float = 0.0, still_ok: np.ndarray | None = None,
@@ -133,6 +167,7 @@ def frame_edges(
     d : (E,) their dissimilarities.
     """
     z = np.zeros(0, np.int64)
+    history = np.ascontiguousarray(history, np.float64)
     raw = history
     idx = np.arange(len(xy))
     if min_speed_px_s > 0 and len(xy):
@@ -145,7 +180,7 @@ def frame_edges(
         pairs = cKDTree(xy[idx]).query_pairs(r=float(radius_px), output_type="ndarray")
         if len(pairs):
             i, j = idx[pairs[:, 0]], idx[pairs[:, 1]]
-            d = motion_dissimilarity(history[i], history[j], p_px, frame_interval_s)
+            d = _pair_dissimilarity(history, i, j, float(p_px), float(frame_interval_s), True)
             keep = d < dmax
             out_i.append(i[keep]), out_j.append(j[keep]), out_d.append(d[keep])
     if still_ok is not None and still_radius_px > 0:
@@ -156,7 +191,7 @@ def frame_edges(
             pairs = cKDTree(xy[sidx]).query_pairs(r=float(still_radius_px), output_type="ndarray")
             if len(pairs):
                 i, j = sidx[pairs[:, 0]], sidx[pairs[:, 1]]
-                d = motion_dissimilarity(raw[i], raw[j], p_px, frame_interval_s, angle=False)
+                d = _pair_dissimilarity(raw, i, j, float(p_px), float(frame_interval_s), False)
                 keep = d < dmax
                 out_i.append(i[keep]), out_j.append(j[keep]), out_d.append(d[keep])
     i, j, d = np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_d)
@@ -212,6 +247,55 @@ def assign_identities(
         ids[c] = next_id
         next_id += 1
     return ids, next_id
+
+
+@nb.njit(cache=True, nogil=True)
+def _affinity_update(w_all, linked_all, has, ss, pi, pj, act_s, alpha, w_cap, w_link):
+    """One frame's affinity update of the slots ``ss`` in place (see :meth:`AffinityClusters.step`):
+    every weight among them decays by 1, those of this frame's edges ``(pi, pj)`` (indices into
+    ``ss``) grow by ``alpha`` instead, clipped to ``[0, w_cap]``; a link forms at ``w_link`` and
+    holds while the weight is positive.  Float32 arithmetic, as the weights are stored.  Returns
+    the links among the ``act_s`` features as index pairs ``i < j`` into ``ss``, row by row."""
+    m = len(ss)
+    edge = np.zeros((m, m), np.bool_)
+    for k in range(len(pi)):
+        edge[pi[k], pj[k]] = True
+        edge[pj[k], pi[k]] = True
+    one = np.float32(1.0)
+    gain = np.float32(1.0 + alpha)
+    cap = np.float32(w_cap)
+    wl = np.float32(w_link)
+    zero = np.float32(0.0)
+    n_links = 0
+    li = np.empty(m * (m - 1) // 2 if m > 1 else 0, np.int64)
+    lj = np.empty_like(li)
+    for i in range(m):
+        si = ss[i]
+        any_pos = False
+        for j in range(m):
+            sj = ss[j]
+            if i == j:
+                w_all[si, sj] = zero
+                linked_all[si, sj] = False
+                continue
+            w = w_all[si, sj] - one
+            if edge[i, j]:
+                w = w + gain
+            if w < zero:
+                w = zero
+            elif w > cap:
+                w = cap
+            lk = (w >= wl) or (linked_all[si, sj] and w > zero)
+            w_all[si, sj] = w
+            linked_all[si, sj] = lk
+            if w > zero:
+                any_pos = True
+            if lk and j > i and act_s[i] and act_s[j]:
+                li[n_links] = i
+                lj[n_links] = j
+                n_links += 1
+        has[si] = any_pos
+    return li[:n_links], lj[:n_links]
 
 
 class AffinityClusters:
@@ -347,22 +431,11 @@ class AffinityClusters:
         ss = slots[sub]
         pos = np.full(n, -1, np.int64)
         pos[sub] = np.arange(len(sub))
-        ix = np.ix_(ss, ss)
-        w = self._w[ix] - 1.0
-        w[pos[ei], pos[ej]] += 1.0 + self.alpha
-        w[pos[ej], pos[ei]] += 1.0 + self.alpha
-        np.clip(w, 0.0, self.w_cap, out=w)
-        np.fill_diagonal(w, 0.0)
-        lk = (w >= self.w_link) | (self._linked[ix] & (w > 0))
-        self._w[ix] = w
-        self._linked[ix] = lk
-        self._has[ss] = (w > 0).any(axis=1)
-
         # clusters: connected components of the links among the active features
         act = np.ones(n, bool) if active is None else np.asarray(active, bool)
         act_s = act[sub]
-        lk_act = lk & act_s[:, None] & act_s[None, :]
-        li, lj = np.nonzero(np.triu(lk_act, 1))
+        li, lj = _affinity_update(self._w, self._linked, self._has, ss, pos[ei], pos[ej], act_s,
+                                  self.alpha, self.w_cap, self.w_link)
         comp = np.full(n, -1, np.int64)
         if len(li):
             m = len(sub)
@@ -393,12 +466,105 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
-def _channel_max(a: np.ndarray) -> np.ndarray:
-    """Largest value over the last (channel) axis; element-wise maxima, which NumPy does much
-    faster than a reduction over an axis of length 3."""
-    out = a[..., 0]
-    for c in range(1, a.shape[-1]):
-        out = np.maximum(out, a[..., c])
+@nb.njit(cache=True, nogil=True)
+def _median_sorted(v):
+    """Median of a sorted 1-D float32 array (the mean of the two middle values when even)."""
+    n = len(v)
+    if n % 2:
+        return v[n // 2]
+    return np.float32((v[n // 2 - 1] + v[n // 2]) / np.float32(2.0))
+
+
+@nb.njit(cache=True, nogil=True)
+def _window_background(win, bw):
+    """Each row's background of a ``(rows, cols, C)`` window (per channel, the median of its
+    ``bw`` left and ``bw`` right border pixels) and the border's robust noise (1.4826 times the
+    median over the border of the largest channel deviation from it)."""
+    rows, cols, nc = win.shape
+    bg = np.empty((rows, nc), np.float32)
+    buf = np.empty(2 * bw, np.float32)
+    for r in range(rows):
+        for c in range(nc):
+            for k in range(bw):
+                buf[k] = np.float32(win[r, k, c])
+                buf[bw + k] = np.float32(win[r, cols - bw + k, c])
+            bg[r, c] = _median_sorted(np.sort(buf))
+    dev = np.empty(rows * 2 * bw, np.float32)
+    i = 0
+    for r in range(rows):
+        for k in range(2 * bw):
+            col = k if k < bw else cols - 2 * bw + k
+            m = np.float32(0.0)
+            for c in range(nc):
+                d = abs(np.float32(win[r, col, c]) - bg[r, c])
+                if d > m:
+                    m = d
+            dev[i] = m
+            i += 1
+    return bg, 1.4826 * float(_median_sorted(np.sort(dev)))
+
+
+@nb.njit(cache=True, nogil=True)
+def _hist_rank(hist, k):
+    """The bin holding the ``k``-th smallest value (0-based) of a histogram."""
+    acc = 0
+    for b in range(len(hist)):
+        acc += hist[b]
+        if acc > k:
+            return b
+    return len(hist) - 1
+
+
+@nb.njit(cache=True, nogil=True)
+def _hist_median(hist, n, step):
+    """Median of ``n`` values counted in ``hist`` (bin b holds the value ``b * step``)."""
+    if n % 2:
+        return np.float32(_hist_rank(hist, n // 2) * step)
+    lo = _hist_rank(hist, n // 2 - 1)
+    hi = _hist_rank(hist, n // 2)
+    return np.float32((lo + hi) * step / 2.0)
+
+
+@nb.njit(cache=True, nogil=True)
+def _window_background_u8(win, bw):
+    """:func:`_window_background` for 8-bit windows, with histogram medians (exactly the same
+    values: the medians of whole grey levels are whole or half levels)."""
+    rows, cols, nc = win.shape
+    bg = np.empty((rows, nc), np.float32)
+    hist = np.zeros(256, np.int64)
+    for r in range(rows):
+        for c in range(nc):
+            hist[:] = 0
+            for k in range(bw):
+                hist[win[r, k, c]] += 1
+                hist[win[r, cols - bw + k, c]] += 1
+            bg[r, c] = _hist_median(hist, 2 * bw, 1.0)
+    dh = np.zeros(512, np.int64)  # deviations are multiples of half a grey level
+    for r in range(rows):
+        for k in range(2 * bw):
+            col = k if k < bw else cols - 2 * bw + k
+            m = np.float32(0.0)
+            for c in range(nc):
+                d = abs(np.float32(win[r, col, c]) - bg[r, c])
+                if d > m:
+                    m = d
+            dh[int(m * 2.0 + 0.5)] += 1
+    return bg, 1.4826 * float(_hist_median(dh, rows * 2 * bw, 0.5))
+
+
+@nb.njit(cache=True, nogil=True)
+def _window_deviation(win, bg, r0, r1, c0, c1):
+    """Largest channel deviation from the row's background, over ``win[r0:r1, c0:c1]``."""
+    nc = win.shape[2]
+    out = np.empty((r1 - r0, c1 - c0), np.float32)
+    for r in range(r0, r1):
+        for q in range(c0, c1):
+            m = np.float32(0.0)
+            for c in range(nc):
+                d = abs(np.float32(win[r, q, c]) - bg[r, c])
+                if d > m:
+                    m = d
+            out[r - r0, q - c0] = m
     return out
 
 
@@ -455,21 +621,22 @@ def grow_boxes(
         bw = max(b, int(round(0.1 * (x1 - x0))))
         if x1 - x0 < 2 * bw + 3 or y1 - y0 < 3:
             continue
-        win = img[y0:y1, x0:x1].astype(np.float32)
-        ring = np.concatenate([win[:, :bw], win[:, -bw:]], axis=1)  # (rows, 2 bw, C)
-        bg = np.median(ring, axis=1)  # (rows, C)
-        dev_ring = _channel_max(np.abs(ring - bg[:, None, :]))
-        sigma = 1.4826 * float(np.median(dev_ring))
-        dev = _channel_max(np.abs(win - bg[:, None, :]))
+        win = img[y0:y1, x0:x1]
+        # (rows, C) background and its noise
+        bg, sigma = (_window_background_u8 if win.dtype == np.uint8 else _window_background)(win, bw)
         cx, cy, cw, ch = cores[n]
         c0x, c0y = int(max(0, np.floor(cx)) - x0), int(max(0, np.floor(cy)) - y0)
         c1x, c1y = int(np.ceil(cx + cw)) - x0 + 1, int(np.ceil(cy + ch)) - y0 + 1
         c0x, c0y = max(c0x, 0), max(c0y, 0)
         core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
-        peak = float(np.percentile(dev[core], 90)) if dev[core].size else 0.0
+        r0, r1 = min(core[0].start, win.shape[0]), min(core[0].stop, win.shape[0])
+        q0, q1 = min(core[1].start, win.shape[1]), min(core[1].stop, win.shape[1])
+        dev_core = _window_deviation(win, bg, r0, r1, q0, q1)
+        peak = float(np.percentile(dev_core, 90)) if dev_core.size else 0.0
         contrast[n] = peak / max(sigma, 1.0)
         if large or peak <= max(k_sigma * sigma, min_contrast):
             continue  # the core does not stand out: nothing to grow to
+        dev = _window_deviation(win, bg, 0, win.shape[0], 0, win.shape[1])
         thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
         fg = (dev > thr).astype(np.uint8)
         if fg.mean() > max_fill:
