@@ -38,6 +38,14 @@ REF_BARCHE = {0.3: 0.40, 0.5: 0.26}  # the reference cascade's best F1, measured
 # scale factor 1.3 (fewer pyramid levels)
 FAST_SETTINGS = {"smallest_boat_w/8": {}, "smallest_boat_w/8_sf1.3": {"scale_factor": 1.3}}
 TARGET = {0.3: 0.75, 0.5: 0.55}
+# other shipped cascades measured beside the default in the same run (video2, held-out MarDCT,
+# speed), each with the detector settings stored in its JSON; a file byte-identical to the
+# default is skipped
+ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v2": "boat_cascade_v2.xml"}
+# the floor of a cascade scan at 704x576 (pyramid, integrals, variance checks; a cascade that
+# rejects every window at its first stump) for these windows and scale factors
+FLOOR_WINDOWS = ((60, 30), (40, 20), (30, 15))
+FLOOR_SCALE_FACTORS = (1.1, 1.2)
 
 
 def _video2(ctx, quick: bool):
@@ -118,13 +126,15 @@ def run(ctx) -> None:
 
     # the shipped model's training record (time and set sizes), from the JSON beside it
     import json
-    meta_path = model.with_suffix(".json")
-    if meta_path.is_file():
-        meta = json.loads(meta_path.read_text())
-        for key, unit in (("training_time_s", "s"), ("n_train_images", "images"), ("n_boxes", "boxes"),
-                          ("n_positive_windows", "windows"), ("n_stages", "stages")):
-            if key in meta:
-                ctx.record("shipped model training", "seawatch_cascade", key, meta[key], unit)
+    for tag, mp in {"": model, **{f"_{t}": a for t, a in _alternatives(model).items()}}.items():
+        meta_path = mp.with_suffix(".json")
+        if meta_path.is_file():
+            meta = json.loads(meta_path.read_text())
+            for key, unit in (("training_time_s", "s"), ("n_train_images", "images"), ("n_boxes", "boxes"),
+                              ("n_positive_windows", "windows"), ("n_stages", "stages")):
+                if key in meta:
+                    ctx.record("shipped model training", f"seawatch_cascade{tag}", key, meta[key], unit,
+                               model=mp.name)
 
     # seawatch's cascade, with and without the horizon filter
     for hz in (True, False):
@@ -132,6 +142,14 @@ def run(ctx) -> None:
         pred = _run(det, frames, gt)
         _record_scores(ctx, ds, "seawatch_cascade" + ("+horizon" if hz else ""), pred, gt, hz,
                        extra={"smallest_boat_px": det.min_boat_px(320)})
+    alts = _alternatives(model)
+    for tag, alt in alts.items():
+        for hz in (True, False):
+            det = CascadeDetector(alt, horizon_filter=hz)
+            pred = _run(det, frames, gt)
+            _record_scores(ctx, ds, f"seawatch_cascade_{tag}" + ("+horizon" if hz else ""), pred, gt, hz,
+                           extra={"smallest_boat_px": det.min_boat_px(320), "model": alt.name,
+                                  "settings": _settings(det)})
     # the faster settings of the speed table (smallest boat 1/8 of the width; and scale factor 1.3):
     # what they cost in accuracy on the same frames
     for name, kw in FAST_SETTINGS.items():
@@ -187,6 +205,15 @@ def run(ctx) -> None:
                 pred[k] = (b, s)
             _record_scores(ctx, f"mardct_heldout({len(held)} frames)", "seawatch_cascade" + ("+horizon" if hz else ""),
                            pred, gt_h, hz)
+            for tag, alt in alts.items():
+                det = CascadeDetector(alt, horizon_filter=hz)
+                pred = {}
+                for k, im in enumerate(held):
+                    det.reset()
+                    pred[k] = det.detect_grey(cv2.imread(str(im.path), cv2.IMREAD_GRAYSCALE), 0.0)
+                _record_scores(ctx, f"mardct_heldout({len(held)} frames)",
+                               f"seawatch_cascade_{tag}" + ("+horizon" if hz else ""), pred, gt_h, hz,
+                               extra={"model": alt.name})
             if best.get(hz):
                 det = CascadeDetector(ref, scale_factor=1.1, min_neighbors=5, horizon_filter=hz,
                                       reflection_filter=False)
@@ -205,13 +232,15 @@ def run(ctx) -> None:
         coral = [im for im in parts["heldout"] if im.source == "coral"]
         if coral:
             gt_c = {k: im.boxes for k, im in enumerate(coral)}
-            det = CascadeDetector(model, min_size_px=20.0)
-            pred = {}
-            for k, im in enumerate(coral):
-                det.reset()
-                pred[k] = det.detect_grey(cv2.imread(str(im.path), cv2.IMREAD_GRAYSCALE), 0.0)
-            _record_scores(ctx, f"coral_heldout({len(coral)} images, boats >= 20 px)", "seawatch_cascade+horizon",
-                           pred, {k: b[b[:, 2] >= 20] for k, b in gt_c.items()}, True)
+            for tag, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items():
+                det = CascadeDetector(mp, min_size_px=20.0)
+                pred = {}
+                for k, im in enumerate(coral):
+                    det.reset()
+                    pred[k] = det.detect_grey(cv2.imread(str(im.path), cv2.IMREAD_GRAYSCALE), 0.0)
+                _record_scores(ctx, f"coral_heldout({len(coral)} images, boats >= 20 px)",
+                               f"seawatch_cascade{tag}+horizon", pred, {k: b[b[:, 2] >= 20] for k, b in gt_c.items()},
+                               True)
 
     # simulator: the same cascade on the EO harbour and the thermal (IR) harbour, a seed never
     # trained on (training uses seed 0 and validation seed 100)
@@ -251,6 +280,7 @@ def run(ctx) -> None:
         dets = {"seawatch_cascade+filters": det, "seawatch_cascade+filters(detection_width_352)": faster,
                 **{f"seawatch_cascade+filters({k})": CascadeDetector(model, min_size_px=w / 8.0, **kw)
                    for k, kw in FAST_SETTINGS.items()},
+                **{f"seawatch_cascade_{t}+filters": CascadeDetector(a) for t, a in alts.items()},
                 "barche_x1": peer}
         for name, d in dets.items():
             d.detect(Frame(imgs[0], 0.0, 0))  # warm-up
@@ -270,13 +300,69 @@ def run(ctx) -> None:
                        clock="cpu", wall_ms=1000 * wall[name], detection_scale=scale,
                        smallest_boat_px=None if name == "barche_x1" else d.min_boat_px(w))
             ctx.record(f"{w}x{h} one core", name, "fps", 1.0 / cpu[name], "frames/s", clock="cpu",
-                       wall_fps=1.0 / wall[name], ref=50.0 if name == "seawatch_cascade+filters" and w == 704 else None)
+                       wall_fps=1.0 / wall[name], ref=50.0 if name == "seawatch_cascade+filters" and w == 704 else None,
+                       settings=None if name == "barche_x1" else _settings(d))
         ctx.record(f"{w}x{h} one core", "seawatch_vs_barche", "speed_ratio",
                    cpu["barche_x1"] / cpu["seawatch_cascade+filters"], "x", clock="cpu")
+        for tag, alt in alts.items():
+            ctx.record(f"{w}x{h} one core", f"seawatch_{tag}_vs_seawatch_default", "speed_ratio",
+                       cpu["seawatch_cascade+filters"] / cpu[f"seawatch_cascade_{tag}+filters"], "x", clock="cpu")
         _profile(ctx, model, imgs, f"{w}x{h} one core", reps)
+        for tag, alt in alts.items():
+            _profile(ctx, alt, imgs, f"{w}x{h} one core", reps, prefix=f"profile_{tag}")
+        if w == 704:
+            _floor(ctx, imgs, f"{w}x{h} one core", reps)
 
 
-def _profile(ctx, model, imgs, dataset, reps):
+def _alternatives(model: Path) -> dict:
+    """The ``ALTERNATIVES`` that exist beside the default model and differ from it."""
+    out = {}
+    ref = model.read_bytes()
+    for tag, name in ALTERNATIVES.items():
+        p = model.parent / name
+        if p.is_file() and p.resolve() != model.resolve() and p.read_bytes() != ref:
+            out[tag] = p
+    return out
+
+
+def _settings(det) -> str:
+    p = det.params
+    return (f"window {det.window[0]}x{det.window[1]}, scale factor {p.scale_factor:g}, "
+            f"min_neighbors {p.min_neighbors}, size exponent {p.neighbors_size_exp:g}")
+
+
+def _floor(ctx, imgs, dataset, reps):
+    """CPU time of a cascade scan that rejects every window at its first stump (the image
+    pyramid, integral images and variance checks alone) at 704x576 with the smallest boat at
+    44 px (1/16 of the width; a window maps to a box 0.70 of its width, as the shipped models
+    learned), for each window of ``FLOOR_WINDOWS`` and scale factor of ``FLOOR_SCALE_FACTORS``."""
+    from seawatch.detect.filters import prepare_grey
+    from seawatch.train.haar import generate_features
+    from seawatch.train.model import Cascade, Stage, write_cascade_xml
+    import tempfile
+
+    greys = [prepare_grey(im) for im in imgs]
+    for ww, wh in FLOOR_WINDOWS:
+        feats = generate_features(ww, wh, kinds=("x2",), pos_step_px=4, size_step_px=4)
+        reject = Cascade(ww, wh, feats, [Stage(1e9, [0], [0.0], [0.0], [0.0])])
+        with tempfile.TemporaryDirectory() as tmp:
+            write_cascade_xml(reject, Path(tmp) / "reject.xml")
+            clf = cv2.CascadeClassifier(str(Path(tmp) / "reject.xml"))
+        z = ww * 0.70 / (greys[0].shape[1] / 16.0)
+        dw, dh = int(round(greys[0].shape[1] * z)), int(round(greys[0].shape[0] * z))
+        small = [cv2.resize(g, (dw, dh), interpolation=cv2.INTER_AREA if z < 1 else cv2.INTER_LINEAR) for g in greys]
+        for sf in FLOOR_SCALE_FACTORS:
+            ts = []
+            for _ in range(reps):
+                for g in small:
+                    c0 = time.process_time()
+                    clf.detectMultiScale2(g, scaleFactor=sf, minNeighbors=1, minSize=(ww, wh))
+                    ts.append(time.process_time() - c0)
+            ctx.record(dataset, f"floor:window{ww}x{wh}_sf{sf:g}", "ms_per_frame", 1000 * float(np.median(ts)), "ms",
+                       clock="cpu", detection_width_px=dw)
+
+
+def _profile(ctx, model, imgs, dataset, reps, prefix="profile"):
     """Where the default detector's time goes on the speed frames (CPU ms, median): grey + median,
     horizon detection (done at most 5 times a second), the cascade (``detectMultiScale2``), and
     the part of it that is the image pyramid, integral images and variance checks alone (the
@@ -322,7 +408,7 @@ def _profile(ctx, model, imgs, dataset, reps):
     }
     found = sum(detect_horizon(to_grey(im)) is not None for im in imgs)
     for k, v in stages.items():
-        ctx.record(dataset, f"profile:{k}", "ms_per_frame", v, "ms", clock="cpu", detection_width_px=dw,
+        ctx.record(dataset, f"{prefix}:{k}", "ms_per_frame", v, "ms", clock="cpu", detection_width_px=dw,
                    scale_factor=p.scale_factor, horizon_found_frames=found, n_frames=len(imgs))
     nst = casc.n_stages
     reach = np.zeros(nst + 1)
@@ -342,6 +428,6 @@ def _profile(ctx, model, imgs, dataset, reps):
     stumps = np.array([len(st.feature) for st in casc.stages])
     evals = entering * stumps
     for k in range(nst):
-        ctx.record(dataset, f"profile:stage_{k:02d}", "windows_entering", entering[k] / n_prof, "windows/frame",
+        ctx.record(dataset, f"{prefix}:stage_{k:02d}", "windows_entering", entering[k] / n_prof, "windows/frame",
                    share=float(entering[k] / entering[0]), stumps=int(stumps[k]),
                    stump_eval_share=float(evals[k] / evals.sum()))

@@ -145,3 +145,67 @@ def test_from_config(model):
     assert det.model_path == model
     assert det.params.min_neighbors == 7 and det.params.horizon_filter is False
     assert det.min_boat_px(320) == pytest.approx(40.0)
+
+
+@pytest.fixture(scope="module")
+def small_model(tmp_path_factory):
+    """The same synthetic problem with a 30x15 window (the shipped v5's size)."""
+    images = []
+    for i in range(14):
+        img, boxes, _ = _scene(100 + i)
+        images.append(LabelledImage(f"syn{i}", "sim", boxes, image=img, group="syn", order=float(i)))
+    s = TrainSettings(
+        width_px=30, height_px=15, n_stages=8, features_per_stage=600, feature_pos_step_px=2,
+        feature_size_step_px=2, max_positives=500, n_aug={"sim": 8}, neg_per_pos=1.5, max_weak_count=30,
+        max_scan_windows=3e6, wake_stage=False, time_budget_s=60, seed=3,
+    )
+    negatives = []
+    for i in range(10):
+        img, _, _ = _scene(300 + i, n_boats=0, clutter=30)
+        negatives.append(LabelledImage(f"neg{i}", "sim", np.zeros((0, 4)), image=img, group="neg", order=float(i)))
+    xml = tmp_path_factory.mktemp("det30") / "boats30.xml"
+    cascade, _ = train_cascade(images, xml, s, negative_images=negatives, log=lambda m: None)
+    return cascade, xml
+
+
+def test_small_window_scans_a_smaller_image_and_opencv_agrees(small_model, model):
+    import cv2
+
+    from seawatch.train.model import evaluate_windows
+    from seawatch.train.samples import box_to_window, extract_windows
+
+    cascade, xml = small_model
+    det = _detector(xml)
+    big = _detector(model)
+    assert det.window == (30, 15)
+    # the same smallest boat fills a window half as wide: the detection image is about half as wide
+    assert det.detection_scale(320) == pytest.approx(30 * det.ratio_w / 36.0)
+    assert det.detection_scale(320) / big.detection_scale(320) == pytest.approx(
+        0.5 * det.ratio_w / big.ratio_w)
+    tp = fp = fn = 0
+    for k in range(6):
+        img, boxes, _ = _scene(600 + k)
+        det.reset()
+        d = det.detect(Frame(img, t_s=0.04 * k, index=k))
+        a, b, c = match_counts(d.boxes, boxes, 0.3)
+        tp, fp, fn = tp + a, fp + b, fn + c
+    assert tp >= 0.75 * (tp + fn)
+    assert fp <= 0.35 * (tp + fp)
+    # OpenCV accepts exactly the 30x15 windows the trainer's evaluator accepts
+    clf = cv2.CascadeClassifier(str(xml))
+    assert tuple(clf.getOriginalWindowSize()) == (30, 15)
+    rng = np.random.default_rng(5)
+    wins = []
+    for k in range(3):
+        img, boxes, _ = _scene(700 + k)
+        wins.append(extract_windows(img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY),
+                                    box_to_window(boxes), (30, 15), rng, n_aug=6))
+        g = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        ys, xs = rng.integers(0, g.shape[0] - 15, 40), rng.integers(0, g.shape[1] - 30, 40)
+        wins.append(np.stack([g[y:y + 15, x:x + 30] for y, x in zip(ys, xs)]))
+    wins = np.concatenate(wins)
+    mine = evaluate_windows(cascade, wins) == cascade.n_stages
+    theirs = np.array([len(clf.detectMultiScale(w, scaleFactor=1.5, minNeighbors=0, minSize=(30, 15),
+                                                maxSize=(30, 15))) > 0 for w in wins])
+    assert mine.sum() > 10 and (~mine).sum() > 10
+    np.testing.assert_array_equal(mine, theirs)
