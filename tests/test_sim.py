@@ -416,12 +416,14 @@ def test_band_covered_rows_skip_the_coarse_layer_exactly(name, i):
 
 def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     """Moving cameras sample the wave tile with one cv2.remap at coordinates interpolated from the
-    grid and wrapped into the tile, then shade element-wise on the interpolated sea base colour:
-    within 1 grey level of the per-pixel kernel at the same pixels (remap's 1/32-texel
-    weights), for coordinates far outside the tile."""
+    grid (row by row, inside the kernel) and wrapped into the tile, then shade element-wise on the
+    interpolated sea base colour: the coordinates are those of resizing the grid to the image
+    (whole tiles apart), and the pixels within 1 grey level of the per-pixel kernel (remap's
+    1/32-texel weights), for coordinates far outside the tile, at full and at half width."""
     import cv2
 
-    from seawatch.sim._kernels import sea_shade_sampled, sea_waves_grid, wrap_coords
+    from seawatch.sim._kernels import sea_maps_grid, sea_shade_grid, sea_waves_grid
+    from seawatch.sim.render import _grid_cols
 
     rng = np.random.default_rng(2)
     step, H, W = 16, 96, 80
@@ -437,29 +439,33 @@ def test_sea_sampled_by_remap_matches_the_per_pixel_kernel():
     tile = rng.integers(0, 256, (64, 64, 2), dtype=np.uint8)
     tile4 = np.zeros((65, 65, 4), np.uint8)
     tile4[:, :, :2] = np.pad(tile, ((0, 1), (0, 1), (0, 0)), mode="wrap")
-    big = cv2.resize(grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
-    base_big = cv2.resize(base_grid, (gw * step, gh * step), interpolation=cv2.INTER_LINEAR)
-    maps = np.empty((H, W, 2), np.float32)
-    wrap_coords(big, step, step, 64, maps)  # pixel (y, x) is big[step + y, step + x]
-    assert maps.min() >= 0 and maps.max() < 64
-    k = (big[step:step + H, step:step + W, :2].astype(np.float64) - maps) / 64.0  # whole tiles apart
-    assert np.abs(k - np.round(k)).max() < 1e-4
-    base = np.empty((H, W, 3), np.uint8)
-    base[:] = colour.astype(np.uint8)
     gain = np.array([0.5, 0.55, 0.6], np.float32)
     glint = np.array([255.0, 255.0, 250.0], np.float32)
-    a, b = base.copy(), np.zeros_like(base)
-    sea_waves_grid(a, 0, grid, step, tile, gain, glint, np.zeros((0, W, 2), np.float32), 0,
-                   np.full(4, -1.0, np.float32))
-    tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
-    sea_shade_sampled(b, tex, big, base_big, step, step, gain, glint)
-    d = np.abs(a.astype(int) - b.astype(int))
-    assert (a != base).mean() > 0.5
-    assert d.max() <= 1 and d.mean() < 0.2
-    # one channel (IR) takes the same arithmetic
-    c = np.zeros((H, W, 1), np.uint8)
-    sea_shade_sampled(c, tex, big, base_big, step, step, gain[:1], glint[:1])
-    assert np.array_equal(c[..., 0], b[..., 0])
+    for sx, w in ((step, W), (step // 2, W // 2)):  # full width, half width
+        big = cv2.resize(grid, (gw * sx, gh * step), interpolation=cv2.INTER_LINEAR)
+        seg, wts = _grid_cols(w, sx, gw)
+        y0 = 5  # rows y0 .. H of the image
+        maps = np.empty((H - y0, w, 2), np.float32)
+        sea_maps_grid(grid, y0, step, seg, wts, 64, maps)
+        assert maps.min() >= 0 and maps.max() < 64
+        k = (big[step + y0:step + H, sx:sx + w, :2].astype(np.float64) - maps) / 64.0  # whole tiles apart
+        assert np.abs(k - np.round(k)).max() < 1e-4
+        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR)
+        b = np.zeros((H - y0, w, 3), np.uint8)
+        sea_shade_grid(b, tex, grid, base_grid, y0, step, seg, wts, gain, glint)
+        if sx == step:  # full width: the per-pixel kernel at the same pixels
+            base = np.empty((H, W, 3), np.uint8)
+            base[:] = colour.astype(np.uint8)
+            a = base.copy()
+            sea_waves_grid(a, 0, grid, step, tile, gain, glint, np.zeros((0, W, 2), np.float32), 0,
+                           np.full(4, -1.0, np.float32))
+            d = np.abs(a[y0:].astype(int) - b.astype(int))
+            assert (a != base).mean() > 0.5
+            assert d.max() <= 1 and d.mean() < 0.2
+        # one channel (IR) takes the same arithmetic
+        c = np.zeros((H - y0, w, 1), np.uint8)
+        sea_shade_grid(c, tex, grid, base_grid, y0, step, seg, wts, gain[:1], glint[:1])
+        assert np.array_equal(c[..., 0], b[..., 0])
 
 
 def test_half_width_sea_keeps_the_waves_and_the_truth():

@@ -323,79 +323,6 @@ def sea_waves_grid(out, r0, grid, step, tile, gain, glint_col, hi_map, hi_r0, wa
 
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True)
-def wrap_coords(params, y0, x0, period, out):
-    """Texture coordinates of a periodic tile brought into ``[0, period)`` for ``cv2.remap``:
-    ``out[y, x] = params[y0 + y, x0 + x, :2] mod period`` (``out`` (n, w, 2) float32;
-    ``params`` (Hp, Wp, 4) float32, both C-contiguous)."""
-    n, w = out.shape[0], out.shape[1]
-    p = np.float32(period)
-    ip = np.float32(1.0 / period)
-    hp, wp = params.shape[0], params.shape[1]
-    pf = params.reshape(hp * wp * 4)
-    of = out.reshape(n * w * 2)
-    for y in range(n):  # one row as flat slices with constant strides: the loop vectorises
-        p0 = ((y0 + y) * wp + x0) * 4
-        pt = pf[p0:p0 + 4 * w]
-        ot = of[2 * w * y:2 * w * (y + 1)]
-        for x in range(w):
-            a = pt[4 * x]
-            b = pt[4 * x + 1]
-            ot[2 * x] = a - p * np.floor(a * ip)
-            ot[2 * x + 1] = b - p * np.floor(b * ip)
-
-
-@numba.njit(cache=True, nogil=True, fastmath=True)
-def sea_shade_sampled(out, tex, params, base, y0, x0, gain, glint_col):
-    """Sea pixels from the wave texture already sampled at every pixel: the arithmetic of
-    :func:`sea_waves_grid` without its texture look-ups, as an element-wise pass.
-
-    Parameters
-    ----------
-    out : (n, w, C) uint8, C-contiguous
-        Written: sea base colour plus wave shading plus sun glints.
-    tex : (n, w, 4) uint8, C-contiguous
-        Wave texture (shade, glint, -, -) at the pixels.
-    params, base : (Hp, Wp, 4) float32, C-contiguous
-        Per pixel ``(y0 + y, x0 + x)``: texture x, y (unused here), wave contrast and glint
-        strength; the sea base colour (C channels, then padding).
-    gain, glint_col : (C,) float32
-    """
-    n, w, c = out.shape
-    hp, wp = params.shape[0], params.shape[1]
-    half = np.float32(0.5)
-    c128 = np.float32(128.0)
-    inv = np.float32(1.0 / 255.0)
-    zero = np.float32(0.0)
-    c255 = np.float32(255.0)
-    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
-    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
-    of = out.reshape(n * w * c)
-    tf = tex.reshape(n * w * 4)
-    pf = params.reshape(hp * wp * 4)
-    bf = base.reshape(hp * wp * 4)
-    for y in range(n):  # one row as flat slices with constant strides: the loop vectorises
-        p0 = ((y0 + y) * wp + x0) * 4
-        pt = pf[p0:p0 + 4 * w]
-        bt = bf[p0:p0 + 4 * w]
-        tt = tf[4 * w * y:4 * w * (y + 1)]
-        ot = of[c * w * y:c * w * (y + 1)]
-        if c == 3:
-            for x in range(w):
-                d = (np.float32(tt[4 * x]) - c128) * pt[4 * x + 2]
-                gg = np.float32(tt[4 * x + 1]) * max(pt[4 * x + 3], zero) * inv
-                ot[3 * x] = np.uint8(int(min(max(bt[4 * x] + d * g0 + gg * l0 + half, zero), c255)))
-                ot[3 * x + 1] = np.uint8(int(min(max(bt[4 * x + 1] + d * g1 + gg * l1 + half, zero), c255)))
-                ot[3 * x + 2] = np.uint8(int(min(max(bt[4 * x + 2] + d * g2 + gg * l2 + half, zero), c255)))
-        else:
-            for x in range(w):
-                d = (np.float32(tt[4 * x]) - c128) * pt[4 * x + 2]
-                gg = np.float32(tt[4 * x + 1]) * max(pt[4 * x + 3], zero) * inv
-                for k in range(c):
-                    v = bt[4 * x + k] + d * gain[k] + gg * glint_col[k] + half
-                    ot[c * x + k] = np.uint8(int(min(max(v, zero), c255)))
-
-
 @numba.njit(cache=True, nogil=True)
 def last_dry_row(hi_map, water_top_y):
     """The last row of ``hi_map`` holding a pixel that is not water (see :func:`sea_waves`), or -1:
@@ -407,3 +334,116 @@ def last_dry_row(hi_map, water_top_y):
             if _above_water(hi_map, y, x, water_top_y):
                 return y
     return -1
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _grid_row(grid, y, step, k, seg, wts, out):
+    """Channel ``k`` of ``grid`` (gh, gw, K) linearly interpolated at image row ``y`` and at every
+    output column, into ``out`` (w,).  Grid row ``i`` sits at image row ``(i - 0.5) * step - 0.5``
+    (``cv2.resize``'s INTER_LINEAR convention of an upscale by ``step``, clamped at the grid's
+    ends); output columns ``seg[j] .. seg[j + 1]`` lie between grid columns ``j`` and ``j + 1``,
+    ``wts`` holding the weight of ``j + 1`` (see ``_grid_cols`` in render.py)."""
+    gh = grid.shape[0]
+    fy = (np.float32(y) + np.float32(0.5)) / np.float32(step) + np.float32(0.5)
+    i = int(np.floor(fy))
+    b = fy - np.float32(i)
+    if i < 0:
+        i, b = 0, np.float32(0.0)
+    if i >= gh - 1:
+        i, b = gh - 1, np.float32(0.0)
+    i2 = min(i + 1, gh - 1)
+    a = np.float32(1.0) - b
+    for j in range(len(seg) - 1):
+        v0 = a * grid[i, j, k] + b * grid[i2, j, k]
+        dv = a * grid[i, j + 1, k] + b * grid[i2, j + 1, k] - v0
+        for x in range(seg[j], seg[j + 1]):  # (short runs with constant coefficients)
+            out[x] = v0 + wts[x] * dv
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def sea_maps_grid(grid, y0, step, seg, wts, period, out):
+    """Wave-texture coordinates of image rows ``y0 .. y0 + n`` interpolated from the sea grid and
+    brought into ``[0, period)`` for ``cv2.remap`` (what resizing the grid to the image and
+    wrapping them give, without the full-size intermediate).
+
+    Parameters
+    ----------
+    grid : (gh, gw, 4) float32
+        Per grid sample: texture x, y, wave contrast, glint strength (rows as :func:`_grid_row`).
+    y0, step : int
+        First image row; grid spacing in rows.
+    seg : (gw',) int64, wts : (w,) float32
+        Output columns per grid interval and their weights (see :func:`_grid_row`).
+    period : float
+        Texture period (texels).
+    out : (n, w, 2) float32, C-contiguous
+    """
+    n, w = out.shape[0], out.shape[1]
+    p = np.float32(period)
+    ip = np.float32(1.0 / period)
+    u = np.empty(w, np.float32)
+    v = np.empty(w, np.float32)
+    of = out.reshape(n * w * 2)
+    for y in range(n):
+        _grid_row(grid, y0 + y, step, 0, seg, wts, u)
+        _grid_row(grid, y0 + y, step, 1, seg, wts, v)
+        ot = of[2 * w * y:2 * w * (y + 1)]
+        for x in range(w):
+            ot[2 * x] = u[x] - p * np.floor(u[x] * ip)
+            ot[2 * x + 1] = v[x] - p * np.floor(v[x] * ip)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def sea_shade_grid(out, tex, grid, base, y0, step, seg, wts, gain, glint_col):
+    """The sea pixels of moving cameras (as :func:`sea_waves_grid`, from the wave texture already
+    sampled at every pixel by ``cv2.remap``), with the wave contrast, glint strength and sea base colour
+    interpolated from the sea grid (as :func:`sea_maps_grid`) instead of read from full-size
+    arrays: each row's parameters are interpolated into small scratch rows first, then shaded
+    in an element-wise pass over contiguous arrays (which vectorises).
+
+    Parameters
+    ----------
+    out : (n, w, C) uint8, C-contiguous
+    tex : (n, w, 4) uint8, C-contiguous
+        Wave texture (shade, glint, -, -) at the pixels.
+    grid, base : (gh, gw, 4) float32
+        Sea grid (texture x, y, contrast, glint) and sea base colour (C channels, then padding).
+    y0, step, seg, wts
+        As :func:`sea_maps_grid`.
+    gain, glint_col : (C,) float32
+    """
+    n, w, c = out.shape
+    half = np.float32(0.5)
+    c128 = np.float32(128.0)
+    inv = np.float32(1.0 / 255.0)
+    zero = np.float32(0.0)
+    c255 = np.float32(255.0)
+    g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
+    l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
+    am = np.empty(w, np.float32)
+    gl = np.empty(w, np.float32)
+    b0 = np.empty(w, np.float32)
+    b1 = np.empty(w, np.float32)
+    b2 = np.empty(w, np.float32)
+    of = out.reshape(n * w * c)
+    tf = tex.reshape(n * w * 4)
+    for y in range(n):
+        _grid_row(grid, y0 + y, step, 2, seg, wts, am)
+        _grid_row(grid, y0 + y, step, 3, seg, wts, gl)
+        _grid_row(base, y0 + y, step, 0, seg, wts, b0)
+        tt = tf[4 * w * y:4 * w * (y + 1)]
+        ot = of[c * w * y:c * w * (y + 1)]
+        if c == 3:  # one row as flat slices with constant strides: the loop vectorises
+            _grid_row(base, y0 + y, step, 1, seg, wts, b1)
+            _grid_row(base, y0 + y, step, 2, seg, wts, b2)
+            for x in range(w):
+                d = (np.float32(tt[4 * x]) - c128) * am[x]
+                gg = np.float32(tt[4 * x + 1]) * max(gl[x], zero) * inv
+                ot[3 * x] = np.uint8(int(min(max(b0[x] + d * g0 + gg * l0 + half, zero), c255)))
+                ot[3 * x + 1] = np.uint8(int(min(max(b1[x] + d * g1 + gg * l1 + half, zero), c255)))
+                ot[3 * x + 2] = np.uint8(int(min(max(b2[x] + d * g2 + gg * l2 + half, zero), c255)))
+        else:
+            for x in range(w):
+                d = (np.float32(tt[4 * x]) - c128) * am[x]
+                gg = np.float32(tt[4 * x + 1]) * max(gl[x], zero) * inv
+                ot[x] = np.uint8(int(min(max(b0[x] + d * g0 + gg * l0 + half, zero), c255)))

@@ -25,6 +25,7 @@ real camera, so the box is the vessel's geometric extent, not a threshold of the
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -39,9 +40,9 @@ from seawatch.sim._kernels import (
     fill_polys,
     first_water_rows,
     last_dry_row,
-    sea_shade_sampled,
+    sea_maps_grid,
+    sea_shade_grid,
     sea_waves_grid,
-    wrap_coords,
 )
 from seawatch.sim.texture import (
     CoastSpec,
@@ -153,6 +154,24 @@ def _upsample_grid(a: np.ndarray, gw: int, step: int, size: tuple[int, int], r0:
     big = cv2.resize(sub, (gw * step, sub.shape[0] * step), interpolation=cv2.INTER_LINEAR)
     o = step - k0 * step
     return big[r0 + o:size[0] + o, step:step + size[1]]
+
+
+@functools.lru_cache(maxsize=16)
+def _grid_cols(w: int, step: int, gw: int) -> tuple[np.ndarray, np.ndarray]:
+    """Interpolation of ``w`` image columns between the columns of a grid of ``gw`` samples,
+    grid column ``j`` sitting at image column ``(j - 0.5) * step - 0.5`` (INTER_LINEAR's
+    convention, clamped at the grid's last column): ``seg`` (gw,), the image columns
+    ``seg[j] .. seg[j + 1]`` lying between grid columns ``j`` and ``j + 1``, and ``wts`` (w,),
+    the weight of column ``j + 1``."""
+    fx = (np.arange(w, dtype=np.float32) + np.float32(0.5)) / np.float32(step) + np.float32(0.5)
+    j = np.floor(fx).astype(np.int64)
+    b = (fx - j).astype(np.float32)
+    last = j >= gw - 1
+    j[last], b[last] = gw - 2, 1.0
+    seg = np.searchsorted(j, np.arange(gw), side="left").astype(np.int64)
+    seg.setflags(write=False)
+    b.setflags(write=False)
+    return seg, b
 
 
 def _sea_range_m(el_rad: np.ndarray, height_m: float, r_eff_m: float) -> np.ndarray:
@@ -721,39 +740,39 @@ class Renderer:
             self._sea_rows(img, view, t_s, yl, H, half=True)
 
     def _sea_rows(self, img: np.ndarray, view: _View, t_s: float, y0: int, y1: int, half: bool) -> None:
-        """Water rows ``y0 .. y1`` of ``img`` (see :meth:`_sea_sampled`), at full or half width."""
+        """Water rows ``y0 .. y1`` of ``img`` (see :meth:`_sea_sampled`), at full or half width.
+
+        The wave parameters and the sea base colour are interpolated from the grid inside the
+        kernels, row by row (no full-size intermediate arrays)."""
         W, C, s = self.W, self.C, _GRID_PX
         sx = s // 2 if half else s
         w = -(-W // 2) if half else W
-        # grid sample (i, j) sits at image row (i - 0.5) * s - 0.5 and at column (j - 0.5) * sx - 0.5
-        # of the rows rendered (w pixels wide)
         grid = view.sea_grid
-        i0 = max(0, (y0 + s // 2) // s - 1)
-        i1 = min(grid.shape[0], (y1 + s) // s + 2)
-        size = (grid.shape[1] * sx, (i1 - i0) * s)  # (4-channel resizes: OpenCV's fast path)
-        # (the large temporaries go to buffers kept by the renderer: fresh pages cost as much as
-        # the arithmetic)
-        big = cv2.resize(grid[i0:i1], size, dst=self._buf("sea_par", (size[1], size[0], 4)),
-                         interpolation=cv2.INTER_LINEAR)
-        base = cv2.resize(view.sea_base[i0:i1], size, dst=self._buf("sea_base", (size[1], size[0], 4)),
-                          interpolation=cv2.INTER_LINEAR)
-        yb = y0 - s * i0 + s  # big[yb + y, sx + x] is pixel (y0 + y, x) of the rows rendered
-        maps = self._buf("sea_maps", (y1 - y0, w, 2))
+        seg, wts = _grid_cols(w, sx, grid.shape[1])
+        n = y1 - y0
+        maps = self._buf("sea_maps", (n, w, 2))
         tile4 = self._wave_tile4(t_s)
-        wrap_coords(big, yb, sx, tile4.shape[0] - 1, maps)
-        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR, dst=self._buf("sea_tex", (y1 - y0, w, 4), np.uint8))
+        sea_maps_grid(grid, y0, s, seg, wts, tile4.shape[0] - 1, maps)
+        tex = cv2.remap(tile4, maps, None, cv2.INTER_LINEAR, dst=self._buf("sea_tex", (n, w, 4), np.uint8))
         if not half:
-            sea_shade_sampled(img[y0:y1], tex, big, base, yb, sx, self._gain, self._glint_col)
+            sea_shade_grid(img[y0:y1], tex, grid, view.sea_base, y0, s, seg, wts, self._gain, self._glint_col)
             return
-        rows = self._buf("sea_rows", (y1 - y0, w, C), np.uint8)
-        sea_shade_sampled(rows, tex, big, base, yb, sx, self._gain, self._glint_col)
-        wide = cv2.resize(rows, (2 * w, y1 - y0), interpolation=cv2.INTER_LINEAR)
-        img[y0:y1] = wide[:, :W].reshape(y1 - y0, W, C)
+        rows = self._buf("sea_rows", (n, w, C), np.uint8)
+        sea_shade_grid(rows, tex, grid, view.sea_base, y0, s, seg, wts, self._gain, self._glint_col)
+        if 2 * w == W:  # straight into the image's rows (C-contiguous)
+            d = img[y0:y1].reshape(n, W, C) if C > 1 else img[y0:y1, :, 0]
+            res = cv2.resize(rows.reshape(d.shape[:1] + (w,) + d.shape[2:]), (W, n), dst=d,
+                             interpolation=cv2.INTER_LINEAR)
+            if not np.shares_memory(res, d):  # (OpenCV wrote into a new array)
+                d[...] = res
+            return
+        wide = cv2.resize(rows, (2 * w, n), interpolation=cv2.INTER_LINEAR)
+        img[y0:y1] = wide[:, :W].reshape(n, W, C)
 
     def _buf(self, name: str, shape: tuple, dtype=np.float32) -> np.ndarray:
         """A C-contiguous scratch array of ``shape``, reused from call to call under ``name``
         (its content is undefined; the caller overwrites it)."""
-        n = int(np.prod(shape))
+        n = math.prod(shape)
         b = self._bufs.get(name)
         if b is None or b.size < n or b.dtype != np.dtype(dtype):
             b = self._bufs[name] = np.empty(max(n, n + n // 4), dtype)
