@@ -149,6 +149,8 @@ class FusionSettings:
     min_llr: float = 1.0
     switch_margin: float = 1.0
     ambiguity_margin: float = 1.0  # a new MMSI label needs this mean-llr lead over any other free candidate (0: off)
+    max_box_length_ratio: float = 3.0  # a box longer (at the AIS range) than this x the reported length + margin is not that vessel (0: off)
+    box_length_margin_m: float = 10.0
     self_calibrate: bool = True
     calib_min_samples: int = 10
     calib_max_offset_deg: float = 5.0

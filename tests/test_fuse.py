@@ -604,3 +604,20 @@ def test_track_angles_use_the_camera_pixel_centre_convention():
     # the old convention (no shift) would be half a pixel off: about 0.023 deg at 60 deg / 1280 px
     az_old, _ = CAM.pixel_to_azel(np.array([K.cx + 0.5]), np.array([K.cy + 0.5]))
     assert abs(float(az_old[0]) - float(az[0])) > 0.01
+
+
+def test_a_box_much_longer_than_the_reported_length_does_not_take_that_identity():
+    # a 70 m ferry (its AIS not heard) passes in front of an 11 m boat 1.5x farther away at the same
+    # bearing, which the camera does not track on its own: the ferry's box (70 m at its range,
+    # 105 m at the boat's) cannot be the boat's hull of 11 m
+    ferry = Vessel(1, 0, 700.0, -40.0, 0.0, 6.0, length_m=70.0)
+    boat = Vessel(2, 235000101, 1050.0, 0.0, 0.0, 0.5, length_m=11.0)
+    reps = ais_reports([boat], -60.0, 60.0)
+
+    def labels(settings):
+        fuser = Fuser(CAM, settings, ais=reps)
+        res, _ = run(fuser, [ferry], 0.0, 12.0)
+        return [got.get(1, 0) for _, got, _ in res]
+
+    assert set(labels(FusionSettings())) == {0}
+    assert 235000101 in labels(FusionSettings(max_box_length_ratio=0.0))  # the check off: it would

@@ -402,9 +402,16 @@ class Fuser:
         if len(ta.az_deg) == 0 or len(st) == 0:
             return np.zeros((len(ta.az_deg), len(st)))
         sp = st.speed_mps
-        return pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
-                              s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
-                              rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
+        d2 = pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
+                            s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
+                            rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
+        if s.max_box_length_ratio > 0 and np.isfinite(st.length_m).any():
+            # a box far longer, at the target's range, than the target's reported length is not
+            # that vessel (e.g. a small boat's AIS position behind a passing ferry's box)
+            box_m = 2.0 * np.radians(ta.half_width_deg)[:, None] * np.maximum(tg.range_m, 1.0)[None, :]
+            too_long = box_m > (s.max_box_length_ratio * st.length_m + s.box_length_margin_m)[None, :]
+            d2[too_long] = np.inf  # NaN lengths compare False: unknown length rules nothing out
+        return d2
 
     def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
         st, tg = self._targets(table, t_ais, cam)
