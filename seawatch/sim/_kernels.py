@@ -337,13 +337,22 @@ def last_dry_row(hi_map, water_top_y):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def _grid_row(grid, y, step, k, seg, wts, out):
-    """Channel ``k`` of ``grid`` (gh, gw, K) linearly interpolated at image row ``y`` and at every
-    output column, into ``out`` (w,).  Grid row ``i`` sits at image row ``(i - 0.5) * step - 0.5``
-    (``cv2.resize``'s INTER_LINEAR convention of an upscale by ``step``, clamped at the grid's
-    ends); output columns ``seg[j] .. seg[j + 1]`` lie between grid columns ``j`` and ``j + 1``,
+def _grid_hrow(grid, i, k, seg, wts, out):
+    """Channel ``k`` of grid row ``i`` linearly interpolated at every output column, into ``out``
+    (w,): output columns ``seg[j] .. seg[j + 1]`` lie between grid columns ``j`` and ``j + 1``,
     ``wts`` holding the weight of ``j + 1`` (see ``_grid_cols`` in render.py)."""
-    gh = grid.shape[0]
+    for j in range(len(seg) - 1):
+        v0 = grid[i, j, k]
+        dv = grid[i, j + 1, k] - v0
+        for x in range(seg[j], seg[j + 1]):  # (short runs with constant coefficients)
+            out[x] = v0 + wts[x] * dv
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _grid_vpos(y, step, gh):
+    """Grid rows ``(i, i2)`` and the weight of ``i2`` at image row ``y``, grid row ``i`` sitting at
+    image row ``(i - 0.5) * step - 0.5`` (``cv2.resize``'s INTER_LINEAR convention of an upscale
+    by ``step``, clamped at the grid's ends)."""
     fy = (np.float32(y) + np.float32(0.5)) / np.float32(step) + np.float32(0.5)
     i = int(np.floor(fy))
     b = fy - np.float32(i)
@@ -351,55 +360,68 @@ def _grid_row(grid, y, step, k, seg, wts, out):
         i, b = 0, np.float32(0.0)
     if i >= gh - 1:
         i, b = gh - 1, np.float32(0.0)
-    i2 = min(i + 1, gh - 1)
-    a = np.float32(1.0) - b
-    for j in range(len(seg) - 1):
-        v0 = a * grid[i, j, k] + b * grid[i2, j, k]
-        dv = a * grid[i, j + 1, k] + b * grid[i2, j + 1, k] - v0
-        for x in range(seg[j], seg[j + 1]):  # (short runs with constant coefficients)
-            out[x] = v0 + wts[x] * dv
+    return i, min(i + 1, gh - 1), b
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _grid_band(grid, chans, i, i2, seg, wts, top, dif):
+    """For each channel ``chans[c]`` of ``grid``: grid rows ``i`` and ``i2`` interpolated at every
+    output column, as ``top[c]`` (row ``i``) and ``dif[c]`` (row ``i2`` minus row ``i``): the rows
+    between them are ``top + b * dif``."""
+    for c in range(len(chans)):
+        _grid_hrow(grid, i, chans[c], seg, wts, top[c])
+        _grid_hrow(grid, i2, chans[c], seg, wts, dif[c])
+        for x in range(top.shape[1]):
+            dif[c, x] -= top[c, x]
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def sea_maps_grid(grid, y0, step, seg, wts, period, out):
     """Wave-texture coordinates of image rows ``y0 .. y0 + n`` interpolated from the sea grid and
     brought into ``[0, period)`` for ``cv2.remap`` (what resizing the grid to the image and
-    wrapping them give, without the full-size intermediate).
+    wrapping them give, without the full-size intermediate; each pair of grid rows is
+    interpolated across once, then every image row between them in one pass).
 
     Parameters
     ----------
     grid : (gh, gw, 4) float32
-        Per grid sample: texture x, y, wave contrast, glint strength (rows as :func:`_grid_row`).
+        Per grid sample: texture x, y, wave contrast, glint strength (rows as :func:`_grid_vpos`).
     y0, step : int
         First image row; grid spacing in rows.
-    seg : (gw',) int64, wts : (w,) float32
-        Output columns per grid interval and their weights (see :func:`_grid_row`).
+    seg : (gw,) int64, wts : (w,) float32
+        Output columns per grid interval and their weights (see :func:`_grid_hrow`).
     period : float
         Texture period (texels).
     out : (n, w, 2) float32, C-contiguous
     """
     n, w = out.shape[0], out.shape[1]
+    gh = grid.shape[0]
     p = np.float32(period)
     ip = np.float32(1.0 / period)
-    u = np.empty(w, np.float32)
-    v = np.empty(w, np.float32)
+    chans = np.array([0, 1])
+    top = np.empty((2, w), np.float32)
+    dif = np.empty((2, w), np.float32)
     of = out.reshape(n * w * 2)
+    cur = -1
     for y in range(n):
-        _grid_row(grid, y0 + y, step, 0, seg, wts, u)
-        _grid_row(grid, y0 + y, step, 1, seg, wts, v)
+        i, i2, b = _grid_vpos(y0 + y, step, gh)
+        if i != cur:
+            _grid_band(grid, chans, i, i2, seg, wts, top, dif)
+            cur = i
         ot = of[2 * w * y:2 * w * (y + 1)]
         for x in range(w):
-            ot[2 * x] = u[x] - p * np.floor(u[x] * ip)
-            ot[2 * x + 1] = v[x] - p * np.floor(v[x] * ip)
+            u = top[0, x] + b * dif[0, x]
+            v = top[1, x] + b * dif[1, x]
+            ot[2 * x] = u - p * np.floor(u * ip)
+            ot[2 * x + 1] = v - p * np.floor(v * ip)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def sea_shade_grid(out, tex, grid, base, y0, step, seg, wts, gain, glint_col):
     """The sea pixels of moving cameras (as :func:`sea_waves_grid`, from the wave texture already
-    sampled at every pixel by ``cv2.remap``), with the wave contrast, glint strength and sea base colour
-    interpolated from the sea grid (as :func:`sea_maps_grid`) instead of read from full-size
-    arrays: each row's parameters are interpolated into small scratch rows first, then shaded
-    in an element-wise pass over contiguous arrays (which vectorises).
+    sampled at every pixel by ``cv2.remap``), with the wave contrast, glint strength and sea base
+    colour interpolated from the sea grid (as :func:`sea_maps_grid`), in an element-wise pass
+    over contiguous rows (which vectorises).
 
     Parameters
     ----------
@@ -413,6 +435,7 @@ def sea_shade_grid(out, tex, grid, base, y0, step, seg, wts, gain, glint_col):
     gain, glint_col : (C,) float32
     """
     n, w, c = out.shape
+    gh = grid.shape[0]
     half = np.float32(0.5)
     c128 = np.float32(128.0)
     inv = np.float32(1.0 / 255.0)
@@ -420,30 +443,39 @@ def sea_shade_grid(out, tex, grid, base, y0, step, seg, wts, gain, glint_col):
     c255 = np.float32(255.0)
     g0, g1, g2 = np.float32(gain[0]), np.float32(gain[1 % c]), np.float32(gain[2 % c])
     l0, l1, l2 = np.float32(glint_col[0]), np.float32(glint_col[1 % c]), np.float32(glint_col[2 % c])
-    am = np.empty(w, np.float32)
-    gl = np.empty(w, np.float32)
-    b0 = np.empty(w, np.float32)
-    b1 = np.empty(w, np.float32)
-    b2 = np.empty(w, np.float32)
+    pch = np.array([2, 3])
+    bch = np.array([0, 1, 2]) if c == 3 else np.array([0])
+    ptop = np.empty((2, w), np.float32)
+    pdif = np.empty((2, w), np.float32)
+    btop = np.empty((3, w), np.float32)
+    bdif = np.empty((3, w), np.float32)
     of = out.reshape(n * w * c)
     tf = tex.reshape(n * w * 4)
+    cur = -1
     for y in range(n):
-        _grid_row(grid, y0 + y, step, 2, seg, wts, am)
-        _grid_row(grid, y0 + y, step, 3, seg, wts, gl)
-        _grid_row(base, y0 + y, step, 0, seg, wts, b0)
+        i, i2, b = _grid_vpos(y0 + y, step, gh)
+        if i != cur:
+            _grid_band(grid, pch, i, i2, seg, wts, ptop, pdif)
+            _grid_band(base, bch, i, i2, seg, wts, btop, bdif)
+            cur = i
         tt = tf[4 * w * y:4 * w * (y + 1)]
         ot = of[c * w * y:c * w * (y + 1)]
         if c == 3:  # one row as flat slices with constant strides: the loop vectorises
-            _grid_row(base, y0 + y, step, 1, seg, wts, b1)
-            _grid_row(base, y0 + y, step, 2, seg, wts, b2)
             for x in range(w):
-                d = (np.float32(tt[4 * x]) - c128) * am[x]
-                gg = np.float32(tt[4 * x + 1]) * max(gl[x], zero) * inv
-                ot[3 * x] = np.uint8(int(min(max(b0[x] + d * g0 + gg * l0 + half, zero), c255)))
-                ot[3 * x + 1] = np.uint8(int(min(max(b1[x] + d * g1 + gg * l1 + half, zero), c255)))
-                ot[3 * x + 2] = np.uint8(int(min(max(b2[x] + d * g2 + gg * l2 + half, zero), c255)))
+                am = ptop[0, x] + b * pdif[0, x]
+                gl = max(ptop[1, x] + b * pdif[1, x], zero) * inv
+                d = (np.float32(tt[4 * x]) - c128) * am
+                gg = np.float32(tt[4 * x + 1]) * gl
+                v0 = btop[0, x] + b * bdif[0, x] + d * g0 + gg * l0 + half
+                v1 = btop[1, x] + b * bdif[1, x] + d * g1 + gg * l1 + half
+                v2 = btop[2, x] + b * bdif[2, x] + d * g2 + gg * l2 + half
+                ot[3 * x] = np.uint8(int(min(max(v0, zero), c255)))
+                ot[3 * x + 1] = np.uint8(int(min(max(v1, zero), c255)))
+                ot[3 * x + 2] = np.uint8(int(min(max(v2, zero), c255)))
         else:
             for x in range(w):
-                d = (np.float32(tt[4 * x]) - c128) * am[x]
-                gg = np.float32(tt[4 * x + 1]) * max(gl[x], zero) * inv
-                ot[x] = np.uint8(int(min(max(b0[x] + d * g0 + gg * l0 + half, zero), c255)))
+                am = ptop[0, x] + b * pdif[0, x]
+                gl = max(ptop[1, x] + b * pdif[1, x], zero) * inv
+                d = (np.float32(tt[4 * x]) - c128) * am
+                v = btop[0, x] + b * bdif[0, x] + d * g0 + np.float32(tt[4 * x + 1]) * gl * l0 + half
+                ot[x] = np.uint8(int(min(max(v, zero), c255)))
