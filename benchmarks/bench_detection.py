@@ -281,6 +281,11 @@ def run(ctx) -> None:
                 **{f"seawatch_cascade+filters({k})": CascadeDetector(model, min_size_px=w / 8.0, **kw)
                    for k, kw in FAST_SETTINGS.items()},
                 **{f"seawatch_cascade_{t}+filters": CascadeDetector(a) for t, a in alts.items()},
+                # each model at the best settings of its validation table for the other scale
+                # factors (speed only, never scored on video2): what a faster scale factor costs
+                **{f"seawatch_cascade{t}+filters(validation_best_sf{sf:g})": CascadeDetector(mp, **kw)
+                   for t, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items()
+                   for sf, kw in _best_per_scale_factor(mp).items()},
                 "barche_x1": peer}
         for name, d in dets.items():
             d.detect(Frame(imgs[0], 0.0, 0))  # warm-up
@@ -323,6 +328,29 @@ def _alternatives(model: Path) -> dict:
         if p.is_file() and p.resolve() != model.resolve() and p.read_bytes() != ref:
             out[tag] = p
     return out
+
+
+def _best_per_scale_factor(model: Path) -> dict:
+    """Per scale factor other than the chosen one, the settings of best validation score in the
+    model's JSON (``validation`` table of the selection rule): ``{sf: CascadeDetector kwargs}``."""
+    import json
+
+    p = model.with_suffix(".json")
+    if not p.is_file():
+        return {}
+    meta = json.loads(p.read_text())
+    table, chosen = meta.get("validation") or {}, (meta.get("detector") or {}).get("scale_factor")
+    out = {}
+    for key, row in table.items():
+        m = re.fullmatch(r"sf([\d.]+)_mn(\d+)_exp([\d.]+)", key)
+        if not m or not isinstance(row, dict) or "score" not in row:
+            continue
+        sf, mn, ex = float(m.group(1)), int(m.group(2)), float(m.group(3))
+        if chosen is not None and abs(sf - float(chosen)) < 1e-9:
+            continue
+        if sf not in out or row["score"] > out[sf][0]:
+            out[sf] = (row["score"], {"scale_factor": sf, "min_neighbors": mn, "neighbors_size_exp": ex})
+    return {sf: kw for sf, (_, kw) in sorted(out.items())}
 
 
 def _settings(det) -> str:
