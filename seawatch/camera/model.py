@@ -115,12 +115,15 @@ class Intrinsics:
 def _rotation(pan_deg: float, tilt_deg: float, roll_deg: float) -> np.ndarray:
     """World-from-camera rotation: columns are the camera's x (right), y (down), z (forward) in ENU."""
     p, t, r = np.radians([pan_deg, tilt_deg, roll_deg])
-    fwd = np.array([np.sin(p) * np.cos(t), np.cos(p) * np.cos(t), np.sin(t)])
-    right0 = np.array([np.cos(p), -np.sin(p), 0.0])
-    down0 = np.cross(fwd, right0)
-    right = np.cos(r) * right0 + np.sin(r) * down0
-    down = -np.sin(r) * right0 + np.cos(r) * down0
-    return np.stack([right, down, fwd], axis=1)
+    sp, cp, st, ct, sr, cr = np.sin(p), np.cos(p), np.sin(t), np.cos(t), np.sin(r), np.cos(r)
+    f0, f1, f2 = sp * ct, cp * ct, st  # forward
+    r0, r1, r2 = cp, -sp, 0.0  # right before the roll
+    # down before the roll: forward x right, written out (what np.cross computes, without its
+    # overhead: a camera is built for every frame)
+    d0, d1, d2 = f1 * r2 - f2 * r1, f2 * r0 - f0 * r2, f0 * r1 - f1 * r0
+    return np.array([[cr * r0 + sr * d0, -sr * r0 + cr * d0, f0],
+                     [cr * r1 + sr * d1, -sr * r1 + cr * d1, f1],
+                     [cr * r2 + sr * d2, -sr * r2 + cr * d2, f2]])
 
 
 class CameraModel:

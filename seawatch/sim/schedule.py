@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -89,12 +90,17 @@ class Shake:
     freq_hz: float = 0.3
     seed: int = 0
 
-    def at(self, t_s: float) -> tuple[float, float, float]:
-        """Offsets ``(d_pan, d_tilt, d_roll)`` in degrees at ``t_s``."""
+    @functools.cached_property
+    def _components(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Frequencies (Hz), phases (rad) and weights of the three sinusoids per axis (seeded)."""
         rng = np.random.default_rng(self.seed)
         f = self.freq_hz * rng.uniform(0.6, 1.8, (3, 3))
         ph = rng.uniform(0, 2 * math.pi, (3, 3))
-        w = np.array([0.6, 0.3, 0.1])
+        return f, ph, np.array([0.6, 0.3, 0.1])
+
+    def at(self, t_s: float) -> tuple[float, float, float]:
+        """Offsets ``(d_pan, d_tilt, d_roll)`` in degrees at ``t_s``."""
+        f, ph, w = self._components
         s = (w[None, :] * np.sin(2 * math.pi * f * t_s + ph)).sum(axis=1)
         return float(self.pan_deg * s[0]), float(self.tilt_deg * s[1]), float(self.roll_deg * s[2])
 
