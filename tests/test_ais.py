@@ -142,14 +142,21 @@ def test_bad_checksum_and_malformed_rejected_with_messages():
 
 def test_invalid_position_and_mmsi_rejected():
     dec = NMEADecoder()
+    # AIS's "not available" position: counted, but the report is kept without a position (the
+    # MMSI is on the air); any other impossible position drops the report
     (s,) = enc(msg_type=1, mmsi=235070762, lat=91, lon=181)
-    assert dec.feed(s, t_s=0) == []
+    (rep,) = dec.feed(s, t_s=0)
+    assert rep.mmsi == 235070762 and not rep.has_position and rep.msg_type == 1
+    (s,) = enc(msg_type=1, mmsi=235070763, lat=50, lon=181)
+    (rep,) = dec.feed(s, t_s=0)
+    assert rep.mmsi == 235070763 and not rep.has_position
     (s,) = enc(msg_type=1, mmsi=123456789, lat=50, lon=-1)
     assert dec.feed(s, t_s=0) == []
     (s,) = enc(msg_type=4, mmsi=2320001)
     assert dec.feed(s, t_s=0) == []
-    assert dec.stats.rejected == {"invalid_position": 1, "invalid_mmsi": 1, "unsupported_type": 1}
+    assert dec.stats.rejected == {"invalid_position": 2, "invalid_mmsi": 1, "unsupported_type": 1}
     assert "lat 91" in " ".join(dec.stats.messages_log)
+    assert "kept as heard" in dec.stats.messages_log[0]
 
 
 def test_read_nmea_file_with_time_forms(tmp_path):

@@ -156,3 +156,21 @@ def test_a_silent_boat_is_flagged_within_the_bound_at_a_cold_start(unheard_lost,
 def test_invalid_lost_reports_setting_is_rejected(key, value):
     with pytest.raises(ValueError, match=key):
         Fuser(CAM, FusionSettings(**{key: value}))
+
+
+def test_a_position_report_without_a_fix_holds_the_alert_like_static_data():
+    # a class A vessel whose GNSS has no fix sends position reports with lat 91 / lon 181 ("not
+    # available"): the decoder keeps them without a position, and the fuser holds the RIB's alert
+    # as for an MMSI heard through static data only
+    from pyais import encode_dict
+
+    from seawatch.io.ais import NMEADecoder
+
+    dec = NMEADecoder()
+    (line,) = encode_dict({"msg_type": 1, "mmsi": 235000002, "lat": 91, "lon": 181},
+                          talker_id="AI", sentence_type="VDM", radio_channel="A")
+    (nofix,) = dec.feed(line, t_s=2.0)
+    assert not nofix.has_position and dec.stats.rejected["invalid_position"] == 1
+    got, msgs = _first_no_ais(FusionSettings(), WARM + [nofix], [RIB, FAR_SHIP])
+    assert got == {8: pytest.approx(2.0 + 2 * 6.0 + 2.0, abs=0.21)}
+    assert "MMSI 235000002 (class A" in msgs[0]

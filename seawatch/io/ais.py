@@ -37,6 +37,9 @@ Times are Unix seconds (UTC) when the source carries absolute times.  Rejected, 
 sentences with a bad checksum or malformed fields, incomplete multi-part messages, message types
 other than the eight above, invalid MMSIs (:func:`valid_mmsi`), invalid positions (lat outside
 [-90, 90] such as 91 = unavailable, lon outside [-180, 180] such as 181), unparsable CSV rows.
+An NMEA position report whose position is AIS's "not available" (lat 91 or lon 181) is counted
+as an invalid position but kept as a report without a position (``has_position`` False): the
+MMSI is on the air, which the fuser's "no AIS" rule needs to know.
 Unavailable speed (102.3 kn), course (360) and heading (511) become NaN without rejecting the
 report.
 """
@@ -286,6 +289,7 @@ def message_to_report(d: dict, t_s: float, stats: AISStats, where: str) -> AISRe
         return None
     rep = AISReport(mmsi=mmsi, t_s=float(t_s), msg_type=mt)
     has_static = False
+    heard = False  # kept without a position: the vessel's transponder is on (see below)
     if mt in (5, 19, 24):
         name = _text(d.get("shipname"))
         callsign = _text(d.get("callsign"))
@@ -299,10 +303,15 @@ def message_to_report(d: dict, t_s: float, stats: AISStats, where: str) -> AISRe
     if mt in POSITION_TYPES:
         lat, lon = d.get("lat"), d.get("lon")
         if lat is None or lon is None or not _valid_position(lat, lon):
+            # lat 91 / lon 181 is AIS's "not available" (no GNSS fix): the position is rejected and
+            # counted, but the report is kept without one, so that the fuser knows this MMSI is on
+            # the air (it could be a vessel the camera sees; see docs/fusion.md, rule 3b)
+            heard = lat == 91 or lon == 181
             stats.reject(
                 "invalid_position", f"{where}: MMSI {mmsi} type {mt}: invalid position lat {lat} lon {lon}"
+                + (" (not available: kept as heard, without a position)" if heard else "")
             )
-            if not has_static:
+            if not (has_static or heard):
                 return None
         else:
             rep.lat_deg, rep.lon_deg = float(lat), float(lon)
@@ -317,7 +326,7 @@ def message_to_report(d: dict, t_s: float, stats: AISStats, where: str) -> AISRe
             rep.nav_status = int(st) if st is not None else None
     elif mt == 5:
         pass
-    if not rep.has_position and not has_static:
+    if not rep.has_position and not (has_static or heard):
         return None
     return rep
 
