@@ -38,6 +38,9 @@ def _parse(argv):
                          "keywords} and \"horizon\": camera|detect|auto|off (default: {} = the defaults)")
     ap.add_argument("--duration-s", type=float, default=None, help="scenario length in seconds (default: its own)")
     ap.add_argument("--segment-s", type=float, default=5.0, help="length of the METE segments in seconds (default 5)")
+    ap.add_argument("--switches", action="store_true",
+                    help="list every identity switch: the boat, the identity it had and the new one, whether the "
+                         "old one is still reported (and on what), and how old the new one is")
     return ap.parse_args(argv)
 
 
@@ -124,7 +127,56 @@ def main(argv=None) -> int:
         print(f"{a / scn.fps:5.1f}-{sl.stop / scn.fps:5.1f} s: METE {e['per_frame'][sl].mean():.3f} "
               f"(accuracy {e['accuracy_per_frame'][sl].mean():.3f} + cardinality {e['cardinality_per_frame'][sl].mean():.3f})"
               f"  boats {ng[sl].mean():.1f}  reports {npr[sl].mean():.1f}  zoom {z:.2f}")
+    if args.switches:
+        _print_switches(gt, pred, frames, kinds, scn.fps)
     return 0
+
+
+def _print_switches(gt, pred, frames, kinds, fps):
+    """Each identity switch as CLEAR MOT counts it (IoU >= 0.3, a boat keeps its last identity
+    when that one still matches), with what happened to the old identity and where the new one
+    came from."""
+    from scipy.optimize import linear_sum_assignment
+
+    from seawatch.eval import box_iou
+
+    last = {}  # boat -> (identity, frame index of that match)
+    first_seen = {}  # identity -> first frame reported
+    covered = {}  # identity -> last boat it was matched to
+    print("identity switches (t, boat, old -> new identity):")
+    n = 0
+    for k in frames:
+        gi, gb = gt[k]
+        pi, pb = pred[k]
+        for r in pi:
+            first_seen.setdefault(int(r), k)
+        if not len(gi) or not len(pi):
+            continue
+        iou = box_iou(gb, pb)
+        score = np.where(iou >= 0.3 - 1e-9, iou, 0.0)
+        bonus = np.array([[1000.0 if last.get(int(g), (None,))[0] == int(r) else 0.0 for r in pi] for g in gi])
+        rr, cc = linear_sum_assignment(-(score + bonus * (score > 0)))
+        for a, b in zip(rr, cc):
+            if score[a, b] <= 0:
+                continue
+            g, r = int(gi[a]), int(pi[b])
+            if g in last and last[g][0] != r:
+                old, kf = last[g]
+                n += 1
+                where = "gone"
+                if old in set(int(x) for x in pi):
+                    j = int(np.flatnonzero(pi == old)[0])
+                    io = box_iou(gb, pb[j:j + 1])[:, 0]
+                    a2 = int(np.argmax(io)) if len(io) else -1
+                    where = (f"still reported, IoU {io[a]:.2f} with this boat"
+                             + (f", on boat {int(gi[a2])} (IoU {io[a2]:.2f})" if a2 >= 0 and a2 != a and io[a2] > 0.1 else ""))
+                before = covered.get(r)
+                print(f"  {k / fps:6.1f} s  boat {g:3d} ({kinds[g]}, h {gb[a, 3]:.0f} px): {old} -> {r}; "
+                      f"old last matched {(k - kf) / fps:.1f} s ago, {where}; new one reported since "
+                      f"{(k - first_seen[r]) / fps:.1f} s" + (f", before on boat {before}" if before not in (None, g) else ""))
+            last[g] = (r, k)
+            covered[r] = g
+    print(f"  {n} switches")
 
 
 if __name__ == "__main__":

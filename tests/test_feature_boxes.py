@@ -1,5 +1,7 @@
 """Beyond the paper: boxes grown to the object, the contrast check, identity through a short loss."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -151,3 +153,83 @@ def test_grow_box_same_on_8_bit_and_16_bit_copies_of_an_image():
     np.testing.assert_array_equal(ca, cb)
     assert a[0, 0] <= 65 and a[0, 0] + a[0, 2] >= 89 and a[0, 1] <= 51  # grown to the hull
     np.testing.assert_array_equal(a[1], boxes[1])  # plain noise: kept as it was
+
+
+def test_identity_kept_over_a_long_loss_through_a_pan_with_the_camera_model():
+    """A boat lost for 5 s while the camera pans 8 degrees: its last box, carried by the camera
+    model's directions, meets the new cluster where the boat reappears; carried only by the
+    frames' homographies (identity here: the feature stage saw no motion) it does not."""
+    from seawatch.camera import CameraModel, Intrinsics
+    from seawatch.types import CameraPose
+
+    cam0 = CameraModel(Intrinsics.from_fov(60.0, 240, 160), CameraPose(height_m=20.0, pan_deg=30.0, tilt_deg=-2.0))
+    vel = [[20, 0]] * 2
+    a0, e0 = cam0.pixel_to_azel(np.array([105.0]), np.array([61.0]))
+
+    def run(params, use_camera):
+        c = FeatureClusterer(params)
+        _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]), camera=cam0 if use_camera else None)
+        first = int(tr.ids[0])
+        cam = cam0
+        for k in range(1, 51):  # 5 s lost, the camera pans 8 degrees
+            cam = cam0.with_pose(pan_deg=30.0 + 8.0 * k / 50)
+            _, tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[]),
+                             camera=cam if use_camera else None)
+            assert len(tr) == 0
+        u, v, _ = cam.azel_to_pixel(a0, e0)
+        xy = [[u[0] - 5.0, v[0] - 1.0], [u[0] + 5.0, v[0] + 1.0]]
+        _, tr = c.update(snap(xy, vel, 5.1, 51, ids=[3, 4]), camera=cam if use_camera else None)
+        return first, int(tr.ids[0])
+
+    p = ClusterParams(confirm_s=0.0, relink_s=10.0, relink_px=10.0, relink_px_per_s=0.0, relink_predict_s=0.0)
+    first, now = run(p, use_camera=True)
+    assert now == first
+    first, now = run(p, use_camera=False)
+    assert now != first  # the box stayed where it was lost, ~60 px from the boat
+    # lost longer than relink_s: a new identity even with the camera
+    first, now = run(dataclasses.replace(p, relink_s=4.0), use_camera=True)
+    assert now != first
+
+
+def test_relink_gate_grows_with_the_time_lost():
+    """A lost box 30 px from the new cluster: beyond relink_px, within relink_px + rate x time lost."""
+    vel = [[20, 0]] * 2
+
+    def run(rate):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, relink_px=10.0, relink_px_per_s=rate,
+                                           relink_predict_s=0.0))
+        _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+        first = int(tr.ids[0])
+        for k in range(1, 31):  # 3 s lost
+            c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[]))
+        _, tr = c.update(snap([[140, 60], [150, 62]], vel, 3.1, 31, ids=[3, 4]))
+        return first, int(tr.ids[0])
+
+    first, now = run(10.0)  # gate 10 + 10 x 3 = 40 px
+    assert now == first
+    first, now = run(0.0)  # gate 10 px
+    assert now != first
+
+
+def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
+    """Two clusters on one boat (different motions, boxes overlapping by 0.48 of the smaller, so
+    both reported); the older one dies: with relink_overlap the younger takes the older identity
+    (the paper's merge rule), without it keeps its own."""
+    def run(overlap):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=overlap))
+        xy = [[100, 60], [110, 62], [106, 61], [116, 63]]
+        vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
+        _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))
+        assert len(tr) == 2
+        old, young = sorted(int(i) for i in tr.ids)
+        s1 = snap(xy[2:], vel[2:], 0.1, 1, ids=[3, 4])
+        s1.slots = np.array([2, 3])  # the same features as before
+        _, tr = c.update(s1)
+        return old, young, tr.ids.tolist()
+
+    old, young, now = run(0.3)
+    assert now == [old]
+    old, young, now = run(0.0)
+    assert now == [young]
+    old, young, now = run(0.6)  # overlap too small for this setting
+    assert now == [young]

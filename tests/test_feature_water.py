@@ -195,7 +195,8 @@ def test_relink_follows_a_lost_boat_with_its_own_velocity():
     vel = [[40.0, 0.0]] * 2  # the boat moves 40 px/s; the camera is still
     ids = {}
     for predict in (True, False):
-        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_px=10.0, relink_predict=predict))
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_px=10.0, relink_predict=predict,
+                                           relink_predict_s=2.0, relink_px_per_s=0.0))
         _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
         first = int(tr.ids[0])
         for k in range(1, 11):  # lost for a second

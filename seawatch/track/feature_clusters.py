@@ -715,13 +715,16 @@ class ClusterParams:
     box_pad: float = 1.0
     grow_box: float = 1.0
     grow_peak_frac: float = 0.5
-    relink_s: float = 2.0
+    relink_s: float = 30.0
     relink_px: float = 20.0
     min_contrast: float = 4.0
     merge_overlap: float = 0.5
     still_radius_px: float = 15.0
     relink_predict: bool = True
     water_margin_px: float = 4.0
+    relink_px_per_s: float = 10.0
+    relink_predict_s: float = 0.0
+    relink_overlap: float = 0.3
 
 
 class FeatureClusterer:
@@ -763,6 +766,10 @@ class FeatureClusterer:
         self._prev_boxes: dict[int, np.ndarray] = {}  # reported identity -> last box
         self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
+        self._lost_dir: dict[int, tuple] = {}  # lost identity -> (azimuths, elevations) of its box corners
+        self._camera = None
+        self._prev_camera = None
+        self._zoom = 1.0
 
     def reset(self) -> None:
         self.graph.reset()
@@ -793,29 +800,51 @@ class FeatureClusterer:
                 out[:2] += v * dt
             return out
 
-        self._lost = {k: (tl, carry(b, v), v) for k, (tl, b, v) in self._lost.items() if t - tl <= p.relink_s}
+        def gap_px(b, lb):
+            """Distance between two boxes' edges (0 when they overlap)."""
+            g = np.maximum(np.abs((b[:2] + 0.5 * b[2:]) - (lb[:2] + 0.5 * lb[2:])) - 0.5 * (b[2:] + lb[2:]), 0.0)
+            return float(np.hypot(*g))
+
+        # lost identities follow the camera (and, for relink_predict_s, their own last velocity);
+        # with the camera model, their directions are projected through this frame's camera
+        fcam = self._camera
+        kept = {}
+        for k, (tl, b, v) in self._lost.items():
+            if t - tl > p.relink_s:
+                self._lost_dir.pop(k, None)
+                continue
+            d = self._lost_dir.get(k) if fcam is not None else None
+            nb_ = None
+            if d is not None:
+                el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
+                u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
+                if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
+                    nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
+            kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
+        self._lost = kept
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
+        # new clusters take lost identities, nearest pairs first, within a gate that grows with
+        # the time lost (relink_px + relink_px_per_s per second)
+        pairs = []
         for i in new:
-            cand = [k for k in self._lost if k not in present]
-            if not cand:
-                break
-            b = boxes[i]
-            cb = np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
-            best, best_d = None, np.inf
-            for k in cand:
-                lb = self._lost[k][1]
-                cl = np.array([lb[0] + 0.5 * lb[2], lb[1] + 0.5 * lb[3]])
-                gap = np.maximum(np.abs(cb - cl) - 0.5 * (b[2:] + lb[2:]), 0.0)  # 0 when overlapping
-                d = float(np.hypot(*gap))
-                if d <= p.relink_px and d < best_d:
-                    best, best_d = k, d
-            if best is not None:
-                self._alias[int(cids[i])] = best
-                rep[i] = best
-                present.add(best)
-                del self._lost[best]
+            for k, (tl, lb, _) in self._lost.items():
+                if k in present:
+                    continue
+                d = gap_px(boxes[i], lb)
+                if d <= p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom:
+                    pairs.append((d, i, k))
+        done = set()
+        for d, i, k in sorted(pairs):
+            if i in done or k in present:
+                continue
+            self._alias[int(cids[i])] = k
+            rep[i] = k
+            present.add(k)
+            done.add(i)
+            del self._lost[k]
+            self._lost_dir.pop(k, None)
         # one reported identity per frame: a duplicate falls back to its own identity
         _, first = np.unique(rep, return_index=True)
         dup = np.setdiff1d(np.arange(len(rep)), first)
@@ -824,7 +853,8 @@ class FeatureClusterer:
             rep[i] = int(cids[i])
         self._known.update((int(c), t) for c in cids)
         if len(self._known) > 4 * max(len(cids), 16):  # bounded memory in a long live run
-            memory_s = max(10.0, 5.0 * p.relink_s)
+            # a cluster identity comes back only through the graph's label memory
+            memory_s = max(10.0, 5.0 * p.label_memory_s)
             self._known = {k: tk for k, tk in self._known.items() if t - tk <= memory_s}
             self._alias = {k: v for k, v in self._alias.items() if k in self._known}
         now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
@@ -843,9 +873,52 @@ class FeatureClusterer:
         for k, b in self._prev_boxes.items():
             if k not in now:
                 self._lost[k] = (t, carry(b, self._prev_vel.get(k)), self._prev_vel.get(k))
+                prev_cam = self._prev_camera
+                if prev_cam is not None:  # the directions of its last box's corners, and their rates
+                    az, el = prev_cam.pixel_to_azel(np.array([b[0], b[0] + b[2]]), np.array([b[1], b[1] + b[3]]))
+                    v = self._prev_vel.get(k)
+                    daz = del_ = 0.0
+                    if v is not None and np.all(np.isfinite(v)):
+                        c = np.array([b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]])
+                        a2, e2 = prev_cam.pixel_to_azel(np.array([c[0], c[0] + v[0]]), np.array([c[1], c[1] + v[1]]))
+                        daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
+                        del_ = float(e2[1] - e2[0])
+                    self._lost_dir[k] = (az, el, daz, del_)
+                if p.relink_overlap > 0:
+                    self._hand_over(k, cids, boxes, rep, now, own)
         self._prev_boxes = now
         self._prev_vel = own
+        self._prev_camera = fcam
         return rep
+
+    def _hand_over(self, k, cids, boxes, rep, now, own) -> None:
+        """Identity ``k`` was just lost: a younger cluster reported under its own identity whose
+        box overlaps ``k``'s last box (carried into this frame) by ``relink_overlap`` of the
+        smaller one takes ``k`` (the paper's merge rule, the oldest identity stays, applied when
+        one of two clusters on an object dies rather than joins the other)."""
+        lb = self._lost[k][1]
+        best, best_o = -1, self.params.relink_overlap
+        for i, r in enumerate(rep):
+            r = int(r)
+            if r <= k or r != int(cids[i]):
+                continue  # older, or already carrying another identity
+            b = boxes[i]
+            iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
+            ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
+            small = min(b[2] * b[3], lb[2] * lb[3])
+            o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
+            if o >= best_o:
+                best, best_o = i, o
+        if best < 0:
+            return
+        r = int(rep[best])
+        self._alias[int(cids[best])] = k
+        rep[best] = k
+        now[k] = now.pop(r)
+        if r in own:
+            own[k] = own.pop(r)
+        del self._lost[k]
+        self._lost_dir.pop(k, None)
 
     @property
     def min_speed_px_s(self) -> float:
@@ -856,7 +929,7 @@ class FeatureClusterer:
         return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
-               horizon=None, zoom: float = 1.0) -> tuple[Detections, Tracks]:
+               horizon=None, zoom: float = 1.0, camera=None) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
 
         ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
@@ -882,6 +955,8 @@ class FeatureClusterer:
         # indices into the snapshot
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
         self.last_labels = labels
+        self._camera = camera
+        self._zoom = max(float(zoom), 1e-3)
         return self._outputs(snap, labels, cids, image)
 
     def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray, image=None):
@@ -958,16 +1033,9 @@ class FeatureClusterer:
         return dets, tracks
 
 
-def camera_horizon(camera, frame: Frame):
-    """The sea horizon of a frame from a camera model at the frame's PTZ state (or pose), in the
-    frame's pixels, and the zoom factor: ``(Horizon or None, zoom)``.
-
-    A camera model of another image size is first rescaled to the frame's (``Intrinsics.scaled_to``,
-    pixel-centre convention), so the line's ends are at the frame's columns 0 and ``width - 1``.
-    A frame's ``ptz`` takes precedence over its ``pose``; the pose replaces the model's whole pose
-    (position, height, pan, tilt, roll), as in the fuser."""
-    from seawatch.detect.horizon import Horizon
-
+def camera_at(camera, frame: Frame):
+    """The camera model at a frame's PTZ state (or pose), in the frame's pixels, and the zoom
+    factor: ``(CameraModel, zoom)`` (see :func:`camera_horizon`)."""
     cam = camera
     zoom = 1.0
     if frame.ptz is not None:
@@ -978,10 +1046,28 @@ def camera_horizon(camera, frame: Frame):
     h, w = frame.shape
     if (cam.intrinsics.width, cam.intrinsics.height) != (w, h):  # a camera model of another resolution
         cam = cam.with_intrinsics(cam.intrinsics.scaled_to(w, h))
+    return cam, zoom
+
+
+def camera_horizon(camera, frame: Frame):
+    """The sea horizon of a frame from a camera model at the frame's PTZ state (or pose), in the
+    frame's pixels, and the zoom factor: ``(Horizon or None, zoom)``.
+
+    A camera model of another image size is first rescaled to the frame's (``Intrinsics.scaled_to``,
+    pixel-centre convention), so the line's ends are at the frame's columns 0 and ``width - 1``.
+    A frame's ``ptz`` takes precedence over its ``pose``; the pose replaces the model's whole pose
+    (position, height, pan, tilt, roll), as in the fuser."""
+    cam, zoom = camera_at(camera, frame)
+    return _horizon_of(cam, frame.shape[1]), zoom
+
+
+def _horizon_of(cam, width: int):
+    from seawatch.detect.horizon import Horizon
+
     yl, yr = cam.horizon_line()
     if not (np.isfinite(yl) and np.isfinite(yr)):
-        return None, zoom
-    return Horizon(float(yl), float(yr), int(w), kind="sky"), zoom
+        return None
+    return Horizon(float(yl), float(yr), int(width), kind="sky")
 
 
 class StableFeatureTracker:
@@ -1017,6 +1103,7 @@ class StableFeatureTracker:
         self.horizon_mode = horizon
         self.horizon_every_s = float(horizon_every_s)
         self.last_horizon = None
+        self._frame_camera = None
         self._horizon_tracker = None
 
     def _horizon(self, frame: Frame):
@@ -1030,7 +1117,8 @@ class StableFeatureTracker:
         if mode == "off":
             return None
         if self.camera is not None and mode in ("auto", "camera"):
-            return camera_horizon(self.camera, frame)[0]
+            self._frame_camera = camera_at(self.camera, frame)[0]
+            return _horizon_of(self._frame_camera, frame.shape[1])
         if mode == "camera":
             return None
         if self._horizon_tracker is None:
@@ -1075,6 +1163,7 @@ class StableFeatureTracker:
             When the frame's image is not an image (the message names the frame).
         """
         try:
+            self._frame_camera = None
             hz = self._horizon(frame)
             zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
             snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
@@ -1083,7 +1172,7 @@ class StableFeatureTracker:
         self.last_snapshot = snap
         self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
-        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom)
+        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=self._frame_camera)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
