@@ -186,6 +186,8 @@ def test_identity_kept_over_a_long_loss_through_a_pan_with_the_camera_model():
     assert now == first
     first, now = run(p, use_camera=False)
     assert now != first  # the box stayed where it was lost, ~60 px from the boat
+    first, now = run(dataclasses.replace(p, relink_camera=False), use_camera=True)
+    assert now != first  # the camera model given but not used for the relink
     # lost longer than relink_s: a new identity even with the camera
     first, now = run(dataclasses.replace(p, relink_s=4.0), use_camera=True)
     assert now != first

@@ -698,7 +698,12 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap):
 
 @dataclass(frozen=True)
 class ClusterParams:
-    """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px)."""
+    """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
+
+    The fields after ``confirm_s`` act on the output only and are not in the paper (see
+    ``docs/stable_features.md``): box growing, contrast check, merge of overlapping reports, and
+    the identity relink (``relink_s``, ``relink_px``, ``relink_px_per_s``, ``relink_predict``,
+    ``relink_predict_s``, ``relink_overlap``, ``relink_camera``; see :meth:`FeatureClusterer._relink`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -725,6 +730,7 @@ class ClusterParams:
     relink_px_per_s: float = 10.0
     relink_predict_s: float = 0.0
     relink_overlap: float = 0.3
+    relink_camera: bool = True
 
 
 class FeatureClusterer:
@@ -779,10 +785,16 @@ class FeatureClusterer:
     def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
                 vel: np.ndarray | None = None) -> np.ndarray:
         """Reported identities of this frame's clusters: a cluster born within ``relink_s`` of
-        the loss of a reported identity, where that identity's last box (carried by the
-        camera's motion and, with ``relink_predict``, by the object's own last velocity
-        relative to the scene) lies within ``relink_px`` (or overlaps), takes that identity
-        (not in the paper: a boat whose features all drop out for a moment keeps its identity)."""
+        the loss of a reported identity, where that identity's last box lies within
+        ``relink_px + relink_px_per_s * (time lost) * zoom`` (or overlaps), takes that identity,
+        nearest pairs first (not in the paper: a boat whose features drop out, or that leaves
+        the view during a pan, keeps its identity).  The lost box is carried by the camera's
+        motion (the snapshots' homographies) or, with a camera model (``update(camera=...)``),
+        by projecting the directions of its corners through this frame's camera; with
+        ``relink_predict`` it also moves on with the object's own last velocity for
+        ``relink_predict_s``.  When an identity is lost while a younger cluster overlaps its
+        last box by ``relink_overlap`` of the smaller box, that cluster takes it
+        (:meth:`_hand_over`)."""
         p = self.params
         t = snap.t_s
         dt = float(getattr(snap, "dt_s", p.frame_interval_s))
@@ -807,7 +819,7 @@ class FeatureClusterer:
 
         # lost identities follow the camera (and, for relink_predict_s, their own last velocity);
         # with the camera model, their directions are projected through this frame's camera
-        fcam = self._camera
+        fcam = self._camera if p.relink_camera else None
         kept = {}
         for k, (tl, b, v) in self._lost.items():
             if t - tl > p.relink_s:
