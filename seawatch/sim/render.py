@@ -358,6 +358,22 @@ class Renderer:
                 self._cache_bytes -= sum(a.nbytes for a in old.sea_cache.values())
         return v
 
+    def _grid_px(self):
+        """The coarse grid of every view: ``(gw, gh, U, V)``, its sample (i, j) at pixel
+        ``((j - 0.5) * step - 0.5, (i - 0.5) * step - 0.5)`` (one padding sample around the
+        image); made once (read-only arrays)."""
+        g = self.__dict__.get("_grid")
+        if g is None:
+            W, H, s = self.W, self.H, _GRID_PX
+            gw, gh = -(-W // s) + 2, -(-H // s) + 2
+            uc = (np.arange(gw) + 0.5) * s - 0.5 - s
+            vc = (np.arange(gh) + 0.5) * s - 0.5 - s
+            U, V = np.meshgrid(uc, vc)
+            U.setflags(write=False)
+            V.setflags(write=False)
+            g = self._grid = (gw, gh, U, V)
+        return g
+
     def _sea_params(self, az, r, f_px: float):
         """Wave-texture coordinates (texels), wave contrast and glint strength of sea points seen
         along azimuths ``az`` (deg) at ground ranges ``r`` (m; NaN above the horizon), for a camera
@@ -389,10 +405,7 @@ class Renderer:
 
     def _build_view(self, cam: CameraModel) -> _View:
         W, H, s = self.W, self.H, _GRID_PX
-        gw, gh = -(-W // s) + 2, -(-H // s) + 2
-        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
-        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
-        U, V = np.meshgrid(uc, vc)
+        gw, gh, U, V = self._grid_px()
         az, el = cam.pixel_to_azel(U, V)
         az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
         pano = self.pano
@@ -625,10 +638,7 @@ class Renderer:
         """Background and sea of a swaying camera's frame: one remap of a cached panorama."""
         W, H, s = self.W, self.H, _GRID_PX
         L = self._level(float(cam.intrinsics.fy))
-        gw, gh = -(-W // s) + 2, -(-H // s) + 2
-        uc = (np.arange(gw) + 0.5) * s - 0.5 - s
-        vc = (np.arange(gh) + 0.5) * s - 0.5 - s
-        U, V = np.meshgrid(uc, vc)
+        gw, gh, U, V = self._grid_px()
         az, el = cam.pixel_to_azel(U, V)
         p = self.pano
         az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
