@@ -151,6 +151,7 @@ class FusionSettings:
     ambiguity_margin: float = 1.0  # a new MMSI label needs this mean-llr lead over any other free candidate (0: off)
     max_box_length_ratio: float = 3.0  # a box longer (at the AIS range) than this x the reported length + margin is not that vessel (0: off)
     box_length_margin_m: float = 10.0
+    box_length_min_reported_m: float = 3.0  # shorter reported lengths (e.g. a misconfigured 1 + 1 m) are not size-gated
     self_calibrate: bool = True
     calib_min_samples: int = 10
     calib_max_offset_deg: float = 5.0

@@ -157,6 +157,12 @@ def test_invalid_position_and_mmsi_rejected():
     assert dec.stats.rejected == {"invalid_position": 2, "invalid_mmsi": 1, "unsupported_type": 1}
     assert "lat 91" in " ".join(dec.stats.messages_log)
     assert "kept as heard" in dec.stats.messages_log[0]
+    # impossible positions other than "not available" drop the report (valid MMSI)
+    for lat, lon in ((95, -1), (-91, -1), (50, 190)):
+        (s,) = enc(msg_type=1, mmsi=235070764, lat=lat, lon=lon)
+        assert dec.feed(s, t_s=0) == [], (lat, lon)
+    assert dec.stats.rejected["invalid_position"] == 5
+    assert "lat 95" in dec.stats.messages_log[-3] and "lon 190" in dec.stats.messages_log[-1]
 
 
 def test_read_nmea_file_with_time_forms(tmp_path):

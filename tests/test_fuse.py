@@ -621,3 +621,74 @@ def test_a_box_much_longer_than_the_reported_length_does_not_take_that_identity(
 
     assert set(labels(FusionSettings())) == {0}
     assert 235000101 in labels(FusionSettings(max_box_length_ratio=0.0))  # the check off: it would
+
+
+def _merge_run(settings, t1=50.0):
+    """An 8 m boat with AIS, labelled, whose box merges with a passing 60 m hull from 25 s to
+    45 s (the box grows to cover both, its bottom still on the boat's waterline)."""
+    boat = Vessel(1, 235000111, 600.0, -60.0, 0.0, 3.0, length_m=8.0)
+    fuser = Fuser(CAM, settings, ais=ais_reports([boat], -60.0, 60.0))
+    rng = np.random.default_rng(0)
+    alerts, labels = [], []
+    for k in range(int(round(t1 * 5)) + 1):
+        t = k / 5.0
+        tr = render_tracks([boat], t, rng=rng)
+        if 25.0 <= t < 45.0:  # the hull beside the boat joins the box
+            e, n = boat.enu(t)
+            tr.boxes[0, 2] += 60.0 * CAM.intrinsics.fx / math.hypot(e, n)
+        out, al = fuser.update(tr, None, t)
+        alerts += al
+        labels.append((t, int(out.mmsi[0])))
+    return alerts, labels
+
+
+def test_a_box_growing_by_a_merge_is_not_a_spoofing_alert():
+    alerts, labels = _merge_run(FusionSettings())
+    assert any(m == 235000111 for t, m in labels if 10.0 < t < 25.0)  # labelled before the merge
+    assert not [a for a in alerts if a.kind == "possible_spoofing"]
+    assert all(m == 235000111 for t, m in labels if t > 48.0)  # and after it
+    alerts, _ = _merge_run(FusionSettings(max_box_length_ratio=0.0))
+    assert not [a for a in alerts if a.kind == "possible_spoofing"]
+
+
+def _big_ship_labels(settings, length_m):
+    # a 40 m ship whose AIS static data reports length_m
+    ship = Vessel(1, 235000121, 900.0, -50.0, 0.0, 4.0, length_m=40.0)
+    reps = [dataclasses.replace(r, length_m=length_m) if r.msg_type == 5 else r
+            for r in ais_reports([ship], -60.0, 60.0)]
+    fuser = Fuser(CAM, settings, ais=reps)
+    res, _ = run(fuser, [ship], 0.0, 12.0)
+    return [got.get(1, 0) for t, got, _ in res if t > 5.0]
+
+
+def test_the_size_gate_ignores_an_implausibly_short_reported_length():
+    # a misconfigured AIS length (1 + 1 m) would keep a 40 m ship unlabelled: below
+    # box_length_min_reported_m (3 m) the reported length is not trusted
+    assert set(_big_ship_labels(FusionSettings(), 2.0)) == {235000121}
+    assert set(_big_ship_labels(FusionSettings(box_length_min_reported_m=1.0), 2.0)) == {0}
+    # a length of 4 m is trusted: the 40 m box is not that vessel
+    assert set(_big_ship_labels(FusionSettings(), 4.0)) == {0}
+    # an unknown (NaN) length rules nothing out
+    assert set(_big_ship_labels(FusionSettings(), float("nan"))) == {235000121}
+
+
+@pytest.mark.parametrize("key, value", [("max_box_length_ratio", float("nan")), ("max_box_length_ratio", -1.0),
+                                        ("max_box_length_ratio", 0.5), ("max_box_length_ratio", float("inf")),
+                                        ("box_length_margin_m", -1.0), ("box_length_margin_m", float("nan")),
+                                        ("box_length_min_reported_m", -1.0),
+                                        ("box_length_min_reported_m", float("inf"))])
+def test_invalid_size_gate_settings_are_rejected_naming_the_key(key, value):
+    with pytest.raises(ValueError, match=f"'{key}'"):
+        Fuser(CAM, FusionSettings(**{key: value}))
+    Fuser(CAM, FusionSettings(max_box_length_ratio=0.0))  # 0: off
+    Fuser(CAM, FusionSettings(max_box_length_ratio=1.0, box_length_margin_m=0.0))
+
+
+def test_a_size_gated_pair_is_not_far_for_the_spoofing_check(monkeypatch):
+    # without the held-identity exemption the merged box loses its label (the size gate removes
+    # the pair); the spoofing check must read the removed pair as "not comparable", not as "far"
+    orig = Fuser._distance
+    monkeypatch.setattr(Fuser, "_distance", lambda self, ta, st, tg, held=None: orig(self, ta, st, tg, None))
+    alerts, labels = _merge_run(FusionSettings())
+    assert any(m == 0 for t, m in labels if 30.0 < t < 45.0)  # the label was lost during the merge
+    assert not [a for a in alerts if a.kind == "possible_spoofing"]

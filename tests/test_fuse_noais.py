@@ -50,10 +50,12 @@ def _reports(mmsi, v, times):
     return [_position(mmsi, v, t) for t in times]
 
 
-def _first_no_ais(settings, reports, vessels, t1=50.0):
+def _first_no_ais(settings, reports, vessels, t1=50.0, keep=None):
     """Run camera tracks of ``vessels`` (ground-truth boxes) from t = 0 to ``t1``; the first
-    ``no_ais`` alert time per track id, and every alert message."""
+    ``no_ais`` alert time per track id, and every alert message (the fuser appended to ``keep``)."""
     fuser = Fuser(CAM, settings, ais=reports)
+    if keep is not None:
+        keep.append(fuser)
     got, msgs = {}, []
     for k in range(int(round(t1 * FPS)) + 1):
         t = k / FPS
@@ -173,4 +175,72 @@ def test_a_position_report_without_a_fix_holds_the_alert_like_static_data():
     assert not nofix.has_position and dec.stats.rejected["invalid_position"] == 1
     got, msgs = _first_no_ais(FusionSettings(), WARM + [nofix], [RIB, FAR_SHIP])
     assert got == {8: pytest.approx(2.0 + 2 * 6.0 + 2.0, abs=0.21)}
+    assert "MMSI 235000002 (class A" in msgs[0]
+
+
+def _nofix(mmsi, t_rx):
+    """A class A position report without a GNSS fix (decoded lat 91 / lon 181: no position)."""
+    return AISReport(mmsi, t_rx, msg_type=1)
+
+
+def test_an_mmsi_heard_without_a_fix_for_minutes_is_named_but_not_held():
+    # no GNSS fix since long before the video: reports every 10 s since -400 s.  It is named in the
+    # alert while it is heard; the hold counts from when it was first heard (long ago), so none
+    reps = WARM + [_nofix(235000002, t) for t in np.arange(-400.0, 60.0, 10.0)]
+    keep = []
+    got, msgs = _first_no_ais(FusionSettings(), reps, [RIB, FAR_SHIP], t1=20.0, keep=keep)
+    assert got == {8: pytest.approx(5.0, abs=0.21)}
+    assert "MMSI 235000002 (class A, since 405 s)" in msgs[0]
+    assert list(keep[0]._heard) == [235000002]
+
+
+def test_an_mmsi_heard_again_after_a_long_silence_holds_the_alert_anew():
+    # heard once 400 s ago (longer ago than ais_max_age_s = 360 s), heard again at 2 s: the hold
+    # counts from 2 s, as for an MMSI never heard before
+    reps = WARM + [_static(235000002, -400.0), _static(235000002, 2.0)]
+    got, msgs = _first_no_ais(FusionSettings(), reps, [RIB, FAR_SHIP])
+    assert got == {8: pytest.approx(2.0 + 2 * 6.0 + 2.0, abs=0.21)}
+    assert "MMSI 235000002 (class A, since 14 s)" in msgs[0]
+
+
+def test_mmsis_heard_without_a_position_are_forgotten_after_the_max_age():
+    # heard at 2 s, never again: after ais_max_age_s it is no longer held, named or kept
+    s = FusionSettings(ais_max_age_s=20.0)
+    reps = _reports(235000001, FAR_SHIP, np.arange(-100.0, 60.0, 10.0)) + [_static(235000002, 2.0)]
+    keep = []
+    _first_no_ais(s, reps, [FAR_SHIP], t1=21.0, keep=keep)
+    assert list(keep[0]._heard) == [235000002]
+    keep = []
+    _first_no_ais(s, reps, [FAR_SHIP], t1=23.0, keep=keep)
+    assert keep[0]._heard == {}
+
+
+def test_a_vessel_whose_gnss_fails_mid_voyage_holds_once_its_position_is_stale():
+    # positions until -370 s, then no fix (a report every 6 s): its last position is older than
+    # ais_max_age_s (360 s) from -4 s on, when it counts as heard without a position: held to
+    # -4 + 2 x 6 + 2 = 10 s, and named
+    far = (0, 3000.0, -2000.0, 0.0, 30.0)
+    reps = (WARM + _reports(235000002, far, np.arange(-600.0, -369.0, 10.0))
+            + [_nofix(235000002, t) for t in np.arange(-364.0, 60.0, 6.0)])
+    got, msgs = _first_no_ais(FusionSettings(), reps, [RIB, FAR_SHIP], t1=20.0)
+    assert got == {8: pytest.approx(10.0, abs=0.21)}
+    assert "MMSI 235000002 (class A" in msgs[0]
+
+
+class _LaggedListener:
+    """A live feed: one static message, time-stamped 0.3 s after the frame at which it arrives."""
+
+    def __init__(self, k_arrive, t_stamp):
+        self.k, self.k_arrive, self.t_stamp = 0, k_arrive, t_stamp
+
+    def poll(self):
+        self.k += 1
+        return [_static(235000002, self.t_stamp)] if self.k - 1 == self.k_arrive else []
+
+
+def test_a_report_time_stamped_after_the_frame_still_holds_the_alert():
+    # the RIB is due at 8 s (live 6 s interval + 2 s latency); a static message stamped 8.3 s
+    # arrives with the 8.0 s frame (processing lag): held until 8.3 + 14 s
+    got, msgs = _first_no_ais(FusionSettings(), _LaggedListener(40, 8.3), [RIB])
+    assert got == {8: pytest.approx(8.3 + 2 * 6.0 + 2.0, abs=0.21)}
     assert "MMSI 235000002 (class A" in msgs[0]

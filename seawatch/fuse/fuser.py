@@ -183,6 +183,13 @@ class Fuser:
             v = getattr(s, key)
             if not (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 10):
                 raise ValueError(f"[fusion] key '{key}': expected an integer 0-10, got {v!r}")
+        v = s.max_box_length_ratio
+        if not (math.isfinite(v) and (v == 0 or v >= 1)):
+            raise ValueError(f"[fusion] key 'max_box_length_ratio': expected 0 (off) or a finite number >= 1, got {v}")
+        for key in ("box_length_margin_m", "box_length_min_reported_m"):
+            v = getattr(s, key)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"[fusion] key '{key}': expected a finite number of metres >= 0, got {v}")
         self.camera = camera
         self.camera_id = camera_id
         lat0, lon0 = camera.pose.lat_deg, camera.pose.lon_deg
@@ -229,8 +236,10 @@ class Fuser:
         # begin later than the video), the first update of a live listener
         self._ais_since: float | None = None
         # MMSIs heard only without a usable position (static data, or positions "not available"):
-        # MMSI -> (AIS-clock time first heard, class "A"/"B" from its message types)
-        self._heard: dict[int, tuple[float, str]] = {}
+        # MMSI -> (AIS-clock time first heard, time last heard, class "A"/"B" from its message
+        # types); "first heard" restarts after a silence longer than ais_max_age_s, and entries
+        # not heard for ais_max_age_s are deleted
+        self._heard: dict[int, tuple[float, float, str]] = {}
         self.frame_el_offset_deg = 0.0
         self._last = None
         if ais is not None:
@@ -330,16 +339,22 @@ class Fuser:
                 if r.has_position:
                     self._heard.pop(r.mmsi, None)
                     continue
+                tr = float(r.t_s)
                 slot = self.ais.slot(r.mmsi)
-                if slot is not None and np.isfinite(self.ais.t[slot]):
-                    continue  # located before
-                first = self._heard.get(r.mmsi)
-                cls = "B" if r.msg_type in (18, 19, 24) or (first is not None and first[1] == "B") else "A"
-                self._heard[r.mmsi] = (float(r.t_s) if first is None else min(first[0], float(r.t_s)), cls)
+                if slot is not None and tr - self.ais.t[slot] <= s.ais_max_age_s:
+                    continue  # located recently (a stale position, e.g. before its GNSS failed, is none)
+                prev = self._heard.get(r.mmsi)
+                if prev is not None and tr - prev[1] > s.ais_max_age_s:
+                    prev = None  # silent for longer than the max age: heard anew
+                cls = "B" if r.msg_type in (18, 19, 24) or (prev is not None and prev[2] == "B") else "A"
+                self._heard[r.mmsi] = ((tr, tr, cls) if prev is None else (min(prev[0], tr), max(prev[1], tr), cls))
             if self._ais_since is None:
                 self._ais_since = min(t_ais, min(r.t_s for r in reps))
         elif self._ais_since is None and self._feed.listeners:
             self._ais_since = t_ais  # a live feed is live from when the fuser starts listening
+        if self._heard:
+            for m in [m for m, h in self._heard.items() if t_ais - h[1] > s.ais_max_age_s]:
+                del self._heard[m]
         if self._radar is not None and self._radar_i < len(self._radar):
             j = int(np.searchsorted(self._radar["t_s"], t_ais, side="right"))
             if j > self._radar_i:
@@ -359,7 +374,8 @@ class Fuser:
         if s.rate_window_s > 0:  # rates fitted to the track's recent angles instead of the tracker's velocity
             ta.az_rate_dps, ta.el_rate_dps, ta.rate_valid = self.angles.update(
                 t_ais, ids, ta.az_deg - self.calib.pan_offset_deg, ta.el_deg - self.calib.tilt_offset_deg)
-        d2 = self._distance(ta, st, tg)
+        held = np.array([self.assoc.assigned.get(tid, 0) for tid in ids.tolist()], np.int64)
+        d2, self._sized = self._distance(ta, st, tg, held)
         keys, conf = self.assoc.update(t_ais, ids, st.keys, d2, eligible=confirmed)
         # --- VTS (radar), for tracks without AIS
         vkeys = np.zeros(n, np.int64)
@@ -397,25 +413,40 @@ class Fuser:
                 st = st.subset(keep)
         return st, target_angles(st, 0.0, 0.0, cam.pose.height_m, cam.r_eff_m)
 
-    def _distance(self, ta: TrackAngles, st, tg) -> np.ndarray:
+    def _distance(self, ta: TrackAngles, st, tg, held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(N, M) normalised squared distances of tracks and targets, and the (N, M) mask of the
+        pairs the size gate removed (``d2 = inf`` there): a box far longer, at the target's range,
+        than ``max_box_length_ratio`` x the target's reported length + ``box_length_margin_m``.
+
+        A pair removed by size is *not comparable*, not far: its position says nothing (a
+        labelled boat whose box merges with a passing hull has not left its bearing).  The gate
+        applies only to reported lengths of at least ``box_length_min_reported_m`` (a length of
+        1 + 1 m is a misconfigured transponder, not a 2 m vessel); unknown (NaN) lengths rule
+        nothing out.  Nor does it remove a track's current identity (``held``, (N,) target keys,
+        0 none): a box that grows around a labelled vessel keeps its label.
+        """
         s = self.settings
+        sized = np.zeros((len(ta.az_deg), len(st)), bool)
         if len(ta.az_deg) == 0 or len(st) == 0:
-            return np.zeros((len(ta.az_deg), len(st)))
+            return np.zeros((len(ta.az_deg), len(st))), sized
         sp = st.speed_mps
         d2 = pair_distance2(ta, tg, st.age_s, sp, s.sigma_az_deg, s.sigma_el_deg, s.sigma_rate_dps,
                             s.pos_sigma_m + sp * s.ais_latency_s, range_frac=s.range_frac,
                             rate_box_frac=s.rate_box_frac, gate_deg=s.gate_deg)
-        if s.max_box_length_ratio > 0 and np.isfinite(st.length_m).any():
+        trusted = st.length_m >= s.box_length_min_reported_m  # NaN compares False: unknown rules nothing out
+        if s.max_box_length_ratio > 0 and trusted.any():
             # a box far longer, at the target's range, than the target's reported length is not
             # that vessel (e.g. a small boat's AIS position behind a passing ferry's box)
             box_m = 2.0 * np.radians(ta.half_width_deg)[:, None] * np.maximum(tg.range_m, 1.0)[None, :]
-            too_long = box_m > (s.max_box_length_ratio * st.length_m + s.box_length_margin_m)[None, :]
-            d2[too_long] = np.inf  # NaN lengths compare False: unknown length rules nothing out
-        return d2
+            sized = trusted[None, :] & (box_m > (s.max_box_length_ratio * st.length_m + s.box_length_margin_m)[None, :])
+            if held is not None:
+                sized &= held[:, None] != st.keys[None, :]
+            d2[sized] = np.inf
+        return d2, sized
 
     def _candidates(self, table: TargetTable, t_ais: float, cam, ta: TrackAngles):
         st, tg = self._targets(table, t_ais, cam)
-        return st, tg, self._distance(ta, st, tg)
+        return st, tg, self._distance(ta, st, tg)[0]
 
     def _frame_align(self, ids: np.ndarray, ta: TrackAngles, st, tg) -> None:
         """Remove this frame's common elevation error (a swaying or jittering camera).
@@ -683,6 +714,7 @@ class Fuser:
         out: list[Alert] = []
         g2 = s.gate_sigma ** 2
         loose = 4.0 * g2  # twice the association gate
+        sized = self._sized
         confirmed = tracks.states != int(TrackState.TENTATIVE)
         ids = tracks.ids.tolist()
         taken = {int(k) for k in keys.tolist() if k}
@@ -714,7 +746,8 @@ class Fuser:
                 hist = self._history.get(tid)
                 if hist is not None and hist[1] >= s.min_support_s + s.spoof_dwell_s:
                     j = col.get(hist[0])
-                    far = j is None or not np.isfinite(d2[i, j]) or d2[i, j] > loose
+                    # a pair removed by the size gate (a box grown by a merge) is not comparable: not far
+                    far = j is None or (not sized[i, j] and (not np.isfinite(d2[i, j]) or d2[i, j] > loose))
                     mslot = self.ais.slot(hist[0])
                     reported = mslot is not None and t_ais - self.ais.t[mslot] <= s.ais_max_age_s
                     if far and reported and hist[0] not in taken:
@@ -771,6 +804,8 @@ class Fuser:
             # its position reports, at the class A rate for this speed and allowing for lost ones,
             # are due -- for at most no_ais_unlocated_hold_s after it was first heard.  Class B
             # ones are named in the alert but not waited for (as in the interval rule above)
+            # (an MMSI heard without a position for longer than that, e.g. a vessel without GNSS
+            # fix for minutes, is named but no longer held)
             if unlocated and any(t_ais < t0 + min(n_intervals * ais_report_interval_s(v_low, "A") + s.ais_latency_s,
                                                   s.no_ais_unlocated_hold_s) for _, t0, cls in unlocated if cls == "A"):
                 continue
@@ -795,11 +830,13 @@ class Fuser:
         return out
 
     def _unlocated(self, t_ais: float) -> list[tuple[int, float, str]]:
-        """MMSIs heard (within ``ais_max_age_s``) that have no usable position yet:
-        ``(mmsi, AIS-clock time first heard, class "A"/"B")``, oldest first."""
+        """MMSIs heard within ``ais_max_age_s`` that have no usable position (none, or none
+        younger than ``ais_max_age_s``): ``(mmsi, AIS-clock time first heard, class "A"/"B")``,
+        oldest first.  A report time-stamped after the frame (a live feed's processing lag)
+        counts."""
         if not self._heard:
             return []
-        out = [(m, t0, cls) for m, (t0, cls) in self._heard.items() if 0.0 <= t_ais - t0 <= self.settings.ais_max_age_s]
+        out = [(m, t0, cls) for m, (t0, t1, cls) in self._heard.items() if t_ais - t1 <= self.settings.ais_max_age_s]
         return sorted(out, key=lambda x: x[1])
 
     def _could_be(self, ta: TrackAngles, st, tg) -> np.ndarray:
