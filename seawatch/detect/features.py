@@ -233,6 +233,11 @@ def _best_two(desc, stored, act, qi, ai, nn, dist):
             dist[q, 1] = d2
 
 
+def _kp_xy(kps) -> np.ndarray:
+    """(N, 2) float64 positions of OpenCV keypoints (their float32 values, exactly)."""
+    return cv2.KeyPoint_convert(kps).astype(np.float64).reshape(-1, 2)
+
+
 def _apply_h(h: np.ndarray, xy: np.ndarray) -> np.ndarray:
     """Apply a 3x3 homography to (..., 2) points (NaN stays NaN)."""
     p = np.asarray(xy, np.float64)
@@ -614,8 +619,9 @@ class StableFeatureExtractor:
             pred = pred[np.isfinite(pred).all(axis=1)]
             if not len(pred):
                 pred = None
-        if band is not None:
-            kps = [k for k in kps if not band[0] <= k.pt[1] < band[1]]
+        if band is not None and len(kps):
+            y = _kp_xy(kps)[:, 1]
+            kps = [kps[i] for i in np.flatnonzero(~((band[0] <= y) & (y < band[1])))]
         out = [self._describe_main(grey, kps, pred)]
         if band is not None:
             out.append(self._describe_band(grey, band, pred))
@@ -631,8 +637,8 @@ class StableFeatureExtractor:
     def _describe_main(self, grey: np.ndarray, kps, pred):
         if not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
-        xy = np.array([k.pt for k in kps], np.float64)
-        resp = np.array([k.response for k in kps], np.float64)
+        xy = _kp_xy(kps)
+        resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
         priority = self._priority(xy, pred, self.max_keypoints)
         keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
         # describe on a smaller copy when asked: SIFT's fixed cost (its Gaussian layers) and
@@ -644,13 +650,14 @@ class StableFeatureExtractor:
             img = cv2.resize(grey, (self.descriptor_width_px, max(1, int(round(grey.shape[0] * ds)))),
                              interpolation=cv2.INTER_AREA)
         sc = self.descriptor_scale * ds
-        kps = [cv2.KeyPoint((kps[i].pt[0] + 0.5) * ds - 0.5, (kps[i].pt[1] + 0.5) * ds - 0.5,
-                            kps[i].size * sc, kps[i].angle, kps[i].response, kps[i].octave) for i in keep]
+        dxy = ((xy[keep] + 0.5) * ds - 0.5).tolist()
+        kps = [cv2.KeyPoint(p[0], p[1], kps[i].size * sc, kps[i].angle, r, kps[i].octave)
+               for p, i, r in zip(dxy, keep.tolist(), resp[keep].tolist())]
         kps, desc = self._sift.compute(img, kps)
         if desc is None or not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
-        xy = (np.array([k.pt for k in kps], np.float64) + 0.5) / ds - 0.5
-        size = np.array([k.size for k in kps], np.float64) / sc
+        xy = (_kp_xy(kps) + 0.5) / ds - 0.5
+        size = np.fromiter((k.size for k in kps), np.float64, len(kps)) / sc
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
     def _describe_band(self, grey: np.ndarray, band: tuple[int, int], pred):
@@ -666,10 +673,10 @@ class StableFeatureExtractor:
         kps = self._band_star.detect(big)
         if not kps:
             return empty
-        xy = (np.array([k.pt for k in kps], np.float64) + 0.5) / up - 0.5
+        xy = (_kp_xy(kps) + 0.5) / up - 0.5
         xy[:, 1] += y0
-        size = np.array([k.size for k in kps], np.float64) / up
-        resp = np.array([k.response for k in kps], np.float64)
+        size = np.fromiter((k.size for k in kps), np.float64, len(kps)) / up
+        resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
         priority = self._priority(xy, pred, self.band_max_keypoints)
         keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
                                 self.band_grid_cells, priority)
@@ -683,13 +690,14 @@ class StableFeatureExtractor:
         if f != 1.0:
             img = cv2.resize(img, None, fx=f, fy=f, interpolation=cv2.INTER_LINEAR)
         dsz = np.maximum(size * sc, self.band_min_size_px) * f
-        dk = [cv2.KeyPoint(float((xy[i, 0] + 0.5) * f - 0.5), float((xy[i, 1] - c0 + 0.5) * f - 0.5),
-                           float(dsz[i]), -1, float(resp[i])) for i in keep]
+        px = ((xy[keep, 0] + 0.5) * f - 0.5).tolist()
+        py = ((xy[keep, 1] - c0 + 0.5) * f - 0.5).tolist()
+        dk = [cv2.KeyPoint(x, y, d, -1, r) for x, y, d, r in zip(px, py, dsz[keep].tolist(), resp[keep].tolist())]
         dk, desc = self._sift.compute(img, dk)
         if desc is None or not dk:
             return empty
-        xy = (np.array([k.pt for k in dk], np.float64) + 0.5) / f - 0.5 + [0.0, c0]
-        size = np.array([k.size for k in dk], np.float64) / (sc * f)
+        xy = (_kp_xy(dk) + 0.5) / f - 0.5 + [0.0, c0]
+        size = np.fromiter((k.size for k in dk), np.float64, len(dk)) / (sc * f)
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
     def _match(self, desc: np.ndarray, act: np.ndarray, kxy: np.ndarray | None = None,
