@@ -1,6 +1,7 @@
 """The benchmark table and the metrics benchmark (quick mode) through the harness."""
 
 import json
+import os
 
 import pytest
 
@@ -36,3 +37,32 @@ def test_metrics_benchmark_quick(tmp_path):
     assert len((tmp_path / "metrics.jsonl").read_text().splitlines()) == len(rows)
     with pytest.raises(SystemExit, match="unknown benchmark"):
         run_benchmarks(only=["no-such-benchmark"], results_dir=tmp_path, echo=lambda *a: None)
+
+
+def test_commit_field_ignores_results_written_by_earlier_runs(tmp_path):
+    """A checkout whose only changes are benchmark results is not "-dirty"; a code change is."""
+    import shutil
+    import subprocess
+
+    from seawatch.eval.bench import _git_commit
+
+    if shutil.which("git") is None:
+        pytest.skip("git not installed")
+
+    def git(*args):
+        subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True,
+                       env={"GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
+                            "GIT_COMMITTER_EMAIL": "t@t", "HOME": str(tmp_path), "PATH": os.environ["PATH"]})
+
+    (tmp_path / "benchmarks" / "results").mkdir(parents=True)
+    (tmp_path / "benchmarks" / "results" / "x.jsonl").write_text("{}\n")
+    (tmp_path / "code.py").write_text("a = 1\n")
+    git("init", "-q")
+    git("add", "-A")
+    git("commit", "-q", "-m", "c")
+    head = _git_commit(tmp_path)
+    assert head != "unknown" and not head.endswith("-dirty")
+    (tmp_path / "benchmarks" / "results" / "x.jsonl").write_text("{}\n{}\n")  # a later run appended
+    assert _git_commit(tmp_path) == head
+    (tmp_path / "code.py").write_text("a = 2\n")
+    assert _git_commit(tmp_path) == head + "-dirty"
