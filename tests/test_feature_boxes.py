@@ -235,3 +235,21 @@ def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
     assert now == [young]
     old, young, now = run(0.6)  # overlap too small for this setting
     assert now == [young]
+
+
+def test_window_background_kernels_match_a_numpy_reference():
+    """The edge-background kernels (float and 8-bit histogram variants): per row and channel the
+    median of the left and right edge columns, and 1.4826 times the median of the edge pixels'
+    largest channel deviation from it."""
+    from seawatch.track import feature_clusters as F
+
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        rows, cols, nc = int(rng.integers(3, 30)), int(rng.integers(8, 60)), int(rng.choice([1, 3]))
+        bw = int(rng.integers(1, cols // 2))
+        win = rng.integers(0, 256, (rows, cols, nc), dtype=np.uint8)
+        edges = np.concatenate([win[:, :bw], win[:, cols - bw:]], axis=1).astype(np.float32)
+        bg = np.median(edges, axis=1)
+        sigma = 1.4826 * np.median(np.abs(edges - bg[:, None, :]).max(axis=2))
+        for b, s in (F._window_background(win.astype(np.float32), bw), F._window_background_u8(win, bw)):
+            assert np.allclose(b, bg) and s == pytest.approx(sigma, abs=1e-3)

@@ -493,15 +493,22 @@ def _window_background(win, bw):
     i = 0
     for r in range(rows):
         for k in range(2 * bw):
-            col = k if k < bw else cols - 2 * bw + k
-            m = np.float32(0.0)
-            for c in range(nc):
-                d = abs(np.float32(win[r, col, c]) - bg[r, c])
-                if d > m:
-                    m = d
-            dev[i] = m
+            dev[i] = _edge_deviation(win, bg, r, k, bw)
             i += 1
     return bg, 1.4826 * float(_median_sorted(np.sort(dev)))
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _edge_deviation(win, bg, r, k, bw):
+    """Largest channel deviation from the row's background of the ``k``-th of the ``2 bw`` edge
+    pixels of row ``r`` (the ``bw`` leftmost columns, then the ``bw`` rightmost)."""
+    col = k if k < bw else win.shape[1] - 2 * bw + k
+    m = np.float32(0.0)
+    for c in range(win.shape[2]):
+        d = abs(np.float32(win[r, col, c]) - bg[r, c])
+        if d > m:
+            m = d
+    return m
 
 
 @nb.njit(cache=True, nogil=True)
@@ -542,13 +549,7 @@ def _window_background_u8(win, bw):
     dh = np.zeros(512, np.int64)  # deviations are multiples of half a grey level
     for r in range(rows):
         for k in range(2 * bw):
-            col = k if k < bw else cols - 2 * bw + k
-            m = np.float32(0.0)
-            for c in range(nc):
-                d = abs(np.float32(win[r, col, c]) - bg[r, c])
-                if d > m:
-                    m = d
-            dh[int(m * 2.0 + 0.5)] += 1
+            dh[int(_edge_deviation(win, bg, r, k, bw) * 2.0 + 0.5)] += 1
     return bg, 1.4826 * float(_hist_median(dh, rows * 2 * bw, 0.5))
 
 
