@@ -227,13 +227,15 @@ def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
         s1 = snap(xy[2:], vel[2:], 0.1, 1, ids=[3, 4])
         s1.slots = np.array([2, 3])  # the same features as before
         _, tr = c.update(s1)
-        return old, young, tr.ids.tolist()
+        return old, young, tr.ids.tolist(), c
 
-    old, young, now = run(0.3)
+    old, young, now, c = run(0.3)
     assert now == [old]
-    old, young, now = run(0.0)
-    assert now == [young]
-    old, young, now = run(0.6)  # overlap too small for this setting
+    # the younger identity is retired, not lost: it cannot come back on another cluster
+    assert young not in c._lost and old not in c._lost
+    old, young, now, c = run(0.0)
+    assert now == [young] and old in c._lost
+    old, young, now, c = run(0.6)  # overlap too small for this setting
     assert now == [young]
 
 

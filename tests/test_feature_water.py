@@ -220,6 +220,15 @@ def test_horizon_mode_comes_from_the_settings_and_a_bad_one_is_named():
     on = StableFeatureTracker.from_settings(load_config().tracker, camera=cam)
     on.process(Frame(np.full((H, W), 120, np.uint8), 0.0, 0, ptz=PTZState(0.0, 180.0, -2.0, 1.0)))
     assert on.last_horizon is not None
+    # the clusterer gets the frame's camera (for the relink by the camera model) in every horizon
+    # mode, at the frame's PTZ state
+    for mode in ("off", "detect", "camera", "auto"):
+        trk = StableFeatureTracker(camera=cam, horizon=mode)
+        seen = []
+        upd = trk.clusterer.update
+        trk.clusterer.update = lambda *a, _u=upd, **k: (seen.append(k.get("camera")), _u(*a, **k))[1]
+        trk.process(Frame(np.full((H, W), 120, np.uint8), 0.0, 0, ptz=PTZState(0.0, 181.0, -3.0, 1.0)))
+        assert seen[0] is not None and seen[0].pose.pan_deg == 181.0 and seen[0].pose.tilt_deg == -3.0, mode
     import pytest
 
     from seawatch.config import ConfigError

@@ -883,9 +883,11 @@ class FeatureClusterer:
                 own = {int(r): np.nan_to_num(vel[i] - cam[i]) for i, r in enumerate(rep)}
             except np.linalg.LinAlgError:
                 own = {}
+        renamed = set()  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
-            if k not in now:
-                self._lost[k] = (t, carry(b, self._prev_vel.get(k)), self._prev_vel.get(k))
+            if k not in now and k not in renamed:
+                v0 = self._prev_vel.get(k)
+                self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 prev_cam = self._prev_camera
                 if prev_cam is not None:  # the directions of its last box's corners, and their rates
                     az, el = prev_cam.pixel_to_azel(np.array([b[0], b[0] + b[2]]), np.array([b[1], b[1] + b[3]]))
@@ -898,17 +900,23 @@ class FeatureClusterer:
                         del_ = float(e2[1] - e2[0])
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0:
-                    self._hand_over(k, cids, boxes, rep, now, own)
+                    r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is not None:
+                        renamed.add(r)
+                        self._lost.pop(r, None)
+                        self._lost_dir.pop(r, None)
         self._prev_boxes = now
         self._prev_vel = own
         self._prev_camera = fcam
         return rep
 
-    def _hand_over(self, k, cids, boxes, rep, now, own) -> None:
+    def _hand_over(self, k, cids, boxes, rep, now, own) -> int | None:
         """Identity ``k`` was just lost: a younger cluster reported under its own identity whose
         box overlaps ``k``'s last box (carried into this frame) by ``relink_overlap`` of the
         smaller one takes ``k`` (the paper's merge rule, the oldest identity stays, applied when
-        one of two clusters on an object dies rather than joins the other)."""
+        one of two clusters on an object dies rather than joins the other).  Returns the younger
+        identity given up (retired: it is not lost, so it cannot come back on another cluster),
+        or None."""
         lb = self._lost[k][1]
         best, best_o = -1, self.params.relink_overlap
         for i, r in enumerate(rep):
@@ -923,7 +931,7 @@ class FeatureClusterer:
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
-            return
+            return None
         r = int(rep[best])
         self._alias[int(cids[best])] = k
         rep[best] = k
@@ -932,6 +940,7 @@ class FeatureClusterer:
             own[k] = own.pop(r)
         del self._lost[k]
         self._lost_dir.pop(k, None)
+        return r
 
     @property
     def min_speed_px_s(self) -> float:
@@ -1129,8 +1138,7 @@ class StableFeatureTracker:
         mode = self.horizon_mode
         if mode == "off":
             return None
-        if self.camera is not None and mode in ("auto", "camera"):
-            self._frame_camera = camera_at(self.camera, frame)[0]
+        if self._frame_camera is not None and mode in ("auto", "camera"):
             return _horizon_of(self._frame_camera, frame.shape[1])
         if mode == "camera":
             return None
@@ -1176,7 +1184,9 @@ class StableFeatureTracker:
             When the frame's image is not an image (the message names the frame).
         """
         try:
-            self._frame_camera = None
+            # this frame's camera (PTZ state or pose), whatever the horizon mode: the relink by
+            # the camera model needs it too
+            self._frame_camera = camera_at(self.camera, frame)[0] if self.camera is not None else None
             hz = self._horizon(frame)
             zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
             snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
