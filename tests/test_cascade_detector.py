@@ -19,12 +19,18 @@ def _scene(seed, **kw):
     return boat_scene(seed, **kw)
 
 
-@pytest.fixture(scope="module")
-def model(tmp_path_factory):
+def _synthetic_images():
+    """The synthetic training problem: 14 labelled scenes with boats."""
     images = []
     for i in range(14):
         img, boxes, _ = _scene(100 + i)
         images.append(LabelledImage(f"syn{i}", "sim", boxes, image=img, group="syn", order=float(i)))
+    return images
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    images = _synthetic_images()
     s = TrainSettings(
         n_stages=8, features_per_stage=600, feature_pos_step_px=3, feature_size_step_px=3,
         max_positives=500, n_aug={"sim": 8}, neg_per_pos=1.5, max_weak_count=30,
@@ -150,10 +156,7 @@ def test_from_config(model):
 @pytest.fixture(scope="module")
 def small_model(tmp_path_factory):
     """The same synthetic problem with a 30x15 window (the shipped v5's size)."""
-    images = []
-    for i in range(14):
-        img, boxes, _ = _scene(100 + i)
-        images.append(LabelledImage(f"syn{i}", "sim", boxes, image=img, group="syn", order=float(i)))
+    images = _synthetic_images()
     s = TrainSettings(
         width_px=30, height_px=15, n_stages=8, features_per_stage=600, feature_pos_step_px=2,
         feature_size_step_px=2, max_positives=500, n_aug={"sim": 8}, neg_per_pos=1.5, max_weak_count=30,
