@@ -213,6 +213,23 @@ def test_relink_gate_grows_with_the_time_lost():
     assert now != first
 
 
+def test_default_relink_does_not_take_a_far_cluster_as_the_lost_one():
+    """With the default settings (30 s window, gate growing with the time lost), a cluster that
+    appears about 100 px from where a boat was lost 3 s before gets an identity of its own."""
+    vel = [[20, 0]] * 2
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0))
+    p = c.params
+    assert p.relink_s >= 30.0 and p.relink_px + 3.1 * p.relink_px_per_s < 90.0  # the defaults tested
+    _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    first = int(tr.ids[0])
+    for k in range(1, 31):  # 3 s lost
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[]))
+    _, tr = c.update(snap([[200, 60], [210, 62]], vel, 3.1, 31, ids=[3, 4]))
+    assert len(tr) == 1 and int(tr.ids[0]) != first
+    _, tr = c.update(snap([[202, 60], [212, 62]], vel, 3.2, 32, ids=[3, 4]))
+    assert int(tr.ids[0]) != first  # and it keeps it
+
+
 def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
     """Two clusters on one boat (different motions, boxes overlapping by 0.48 of the smaller, so
     both reported); the older one dies: with relink_overlap the younger takes the older identity
