@@ -770,7 +770,7 @@ class Renderer:
         rows = self._buf("sea_rows", (n, w, C), np.uint8)
         sea_shade_grid(rows, tex, grid, view.sea_base, y0, s, seg, wts, self._gain, self._glint_col)
         if 2 * w == W:  # straight into the image's rows (C-contiguous)
-            d = img[y0:y1].reshape(n, W, C) if C > 1 else img[y0:y1, :, 0]
+            d = img[y0:y1] if C > 1 else img[y0:y1, :, 0]  # views of img (never copies)
             res = cv2.resize(rows.reshape(d.shape[:1] + (w,) + d.shape[2:]), (W, n), dst=d,
                              interpolation=cv2.INTER_LINEAR)
             if not np.shares_memory(res, d):  # (OpenCV wrote into a new array)
