@@ -462,6 +462,9 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("--lowres-prob", type=float, default=0.5,
                    help="share of augmented positives rendered as far boats of about 20-50 px (0.5)")
+    p.add_argument("--scan-mining-stages", type=int, default=0,
+                   help="the first N stages take their negatives from every window the detector scans on the "
+                        "training images (automatic detection scale, pyramid, water region) (0)")
     p.add_argument("--select-only", action="store_true",
                    help="do not train: choose the detector settings of the model at --out again on the "
                         "validation part of --data (its JSON is updated)")
@@ -490,6 +493,8 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         raise CLIError(f"--lowres-prob {args.lowres_prob}: expected a probability in [0, 1]")
     if args.feature_step_px < 1:
         raise CLIError(f"--feature-step-px {args.feature_step_px}: at least 1")
+    if args.scan_mining_stages < 0:
+        raise CLIError(f"--scan-mining-stages {args.scan_mining_stages}: at least 0")
     s = TrainSettings(
         early_weak_counts=early,
         feature_pos_step_px=args.feature_step_px, feature_size_step_px=args.feature_step_px,
@@ -497,7 +502,7 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         max_false_alarm=args.max_false_alarm, max_weak_count=args.max_weak_count,
         features_per_stage=args.features_per_stage, max_positives=args.max_positives,
         wake_stage=not args.no_wake_stage, time_budget_s=args.time_budget_s, seed=args.seed,
-        lowres_prob=args.lowres_prob,
+        lowres_prob=args.lowres_prob, scan_mining_stages=args.scan_mining_stages,
     )
     out = args.out
     command = "seawatch " + " ".join(sys.argv[1:])

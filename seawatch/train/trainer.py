@@ -72,6 +72,14 @@ class TrainSettings:
     neg_iou_max: float = 0.2  # a negative window overlaps no boat or boat window more than this
     max_scan_windows: float = 3e7  # per stage; fewer negatives than needed then: stop
     mine_weights: dict = field(default_factory=lambda: {"mardct": 0.5, "coral": 0.25, "sim": 0.25})
+    # the first ``scan_mining_stages`` stages take their negatives from every window the detector
+    # scans on the training images (automatic detection scale, its pyramid, its water region), so
+    # that early stages learn to reject the port/coast texture the detector meets most
+    scan_mining_stages: int = 0
+    scan_scale_factor: float = 1.1
+    scan_max_upscale: float = 4.0
+    scan_box_ratio_w: float = 0.7  # box / window width assumed for the detection scale (v2, v5: 0.70)
+    scan_roi_margin_frac: float = 0.2  # water region: below the horizon less this; < 0: whole image
     wake_stage: bool = True
     wake_min_hit_rate: float = 0.99
     wake_max_false_alarm: float = 0.5
@@ -140,6 +148,169 @@ def _avoid_boxes(im: LabelledImage, aspect: float, margin: float) -> np.ndarray:
     if len(b) == 0:
         return b
     return np.concatenate([b, box_to_window(b, aspect, margin)])
+
+
+def detection_scale(width_px: int, window_w_px: int, box_ratio_w: float = 0.7, max_upscale: float = 4.0,
+                    min_boat_px: float = 0.0) -> float:
+    """The detector's automatic resize factor (see :meth:`CascadeDetector.detection_scale`)."""
+    min_boat = min_boat_px if min_boat_px > 0 else max(12.0, width_px / 16.0)
+    return float(min(max(window_w_px * box_ratio_w / min_boat, 0.05), max_upscale))
+
+
+class ScanPool:
+    """Every window the detector scans on a set of images, level by level.
+
+    Each image is prepared as :class:`~seawatch.detect.cascade.CascadeDetector` prepares a frame
+    at its automatic detection scale: the water region (below the horizon line less
+    ``roi_margin_frac`` of the image height, when a line is found), resized by the detection
+    scale; the pyramid (``scale_factor``) and the 2 px grid are OpenCV's.
+
+    Parameters
+    ----------
+    images : list of LabelledImage
+    window_px : (width, height) of the cascade window.
+    scale_factor, box_ratio_w, max_upscale, roi_margin_frac : as the detector's.
+    """
+
+    def __init__(self, images: list[LabelledImage], window_px: tuple[int, int], scale_factor: float = 1.1,
+                 box_ratio_w: float = 0.7, max_upscale: float = 4.0, roi_margin_frac: float = 0.2):
+        from seawatch.detect.horizon import detect_horizon
+
+        self.images = images
+        self.win = (int(window_px[0]), int(window_px[1]))
+        self.scale_factor = float(scale_factor)
+        self.base: list[np.ndarray] = []  # detection-scale image of the scanned region
+        self.y0: list[int] = []  # first source row scanned
+        self.z: list[float] = []
+        self.levels: list[list[tuple[float, tuple[int, int]]]] = []  # (factor, (w, h)) per level
+        self.n_windows = np.zeros(len(images), np.int64)
+        for i, im in enumerate(images):
+            g = im.grey()
+            y0 = 0
+            if roi_margin_frac >= 0:
+                hz = detect_horizon(g)
+                if hz is not None:
+                    y0 = int(max(0.0, np.floor(min(hz.y_left, hz.y_right) - roi_margin_frac * g.shape[0])))
+            g = g[y0:]
+            h, w = g.shape
+            z = detection_scale(w, self.win[0], box_ratio_w, max_upscale)
+            dw, dh = max(1, int(round(w * z))), max(1, int(round(h * z)))
+            img = g if (dw, dh) == (w, h) else cv2.resize(
+                g, (dw, dh), interpolation=cv2.INTER_LINEAR if z > 1 else cv2.INTER_AREA)
+            lv = []
+            f = 1.0
+            while True:
+                sz = (int(round(dw / f)), int(round(dh / f)))
+                if sz[0] < self.win[0] or sz[1] < self.win[1]:
+                    break
+                lv.append((f, sz))
+                self.n_windows[i] += ((sz[1] - self.win[1]) // 2 + 1) * ((sz[0] - self.win[0]) // 2 + 1)
+                f *= self.scale_factor
+            self.base.append(img)
+            self.y0.append(y0)
+            self.z.append(z)
+            self.levels.append(lv)
+
+    def level_image(self, i: int, k: int) -> np.ndarray:
+        f, sz = self.levels[i][k]
+        img = self.base[i]
+        return img if sz == (img.shape[1], img.shape[0]) else cv2.resize(img, sz, interpolation=cv2.INTER_LINEAR)
+
+    def to_source(self, i: int, k: int, hits: np.ndarray) -> np.ndarray:
+        """Windows ``(x, y, w, h)`` in source pixels of hits ``(y, x, ...)`` at level ``k`` of image ``i``."""
+        f = self.levels[i][k][0]
+        c = f / self.z[i]
+        return np.stack([hits[:, 1] * c, self.y0[i] + hits[:, 0] * c,
+                         np.full(len(hits), self.win[0] * c), np.full(len(hits), self.win[1] * c)], axis=1)
+
+    def stage_histogram(self, cascade: Cascade, images: np.ndarray | None = None, avoid_boats: bool = True,
+                        aspect: float = 2.0, margin: float = 1.2, iou_max: float = 0.2) -> np.ndarray:
+        """Number of scanned windows by stages passed (``out[j]``: windows that passed exactly ``j``
+        stages; flat windows, which OpenCV rejects before the first stage, count as 0).
+
+        With ``avoid_boats`` windows overlapping a boat (or its window) by more than ``iou_max``
+        are left out, so that the histogram describes the background the detector meets.
+        """
+        hist = np.zeros(cascade.n_stages + 1, np.int64)
+        idx = range(len(self.images)) if images is None else images
+        for i in idx:
+            avoid = _avoid_boxes(self.images[i], aspect, margin) if avoid_boats else np.zeros((0, 4))
+            for k in range(len(self.levels[i])):
+                img = self.level_image(i, k)
+                n_all = ((img.shape[0] - self.win[1]) // 2 + 1) * ((img.shape[1] - self.win[0]) // 2 + 1)
+                hits = scan_image(cascade, img, step_px=2, min_stage=0, max_hits=n_all + 1)
+                if len(avoid) and len(hits):
+                    ok = iou_matrix(self.to_source(i, k, hits), avoid).max(axis=1) <= iou_max
+                    n_boat = int((~ok).sum())
+                    hits = hits[ok]
+                else:
+                    n_boat = 0
+                hist += np.bincount(hits[:, 2], minlength=cascade.n_stages + 1)[: cascade.n_stages + 1]
+                hist[0] += n_all - len(hits) - n_boat  # flat windows
+        return hist
+
+
+def mine_scan_negatives(
+    cascade: Cascade,
+    pool: ScanPool,
+    n_needed: int,
+    s: TrainSettings,
+    rng: np.random.Generator,
+    expected_pass: dict[str, float],
+) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[int, int]]]:
+    """A uniform random sample of the windows of ``pool`` that the cascade accepts, away from boats.
+
+    Sources share the sample as ``s.mine_weights`` says.  ``expected_pass`` (per source, the
+    expected share of windows the cascade accepts) sets the sampling probability so that one
+    pass over the pool gives about ``n_needed`` windows.
+
+    Returns ``(windows (M, H, W) uint8, source (M,), {source: (n_scanned, n_accepted)})``.
+    """
+    aspect = s.width_px / s.height_px
+    srcs = np.array([im.source for im in pool.images])
+    kinds = sorted(set(srcs.tolist()))
+    wsum = sum(s.mine_weights.get(k, 0.2) for k in kinds)
+    q = {}
+    for k in kinds:
+        n_k = float(pool.n_windows[srcs == k].sum()) * max(expected_pass.get(k, 1.0), 1e-9)
+        q[k] = min(1.0, 1.5 * n_needed * s.mine_weights.get(k, 0.2) / wsum / max(n_k, 1.0))
+    got: dict[str, list[np.ndarray]] = {k: [] for k in kinds}
+    stats = {k: [0, 0] for k in kinds}
+    for i in rng.permutation(len(pool.images)):
+        im = pool.images[i]
+        k_src = im.source
+        avoid = _avoid_boxes(im, aspect, s.margin)
+        for k in range(len(pool.levels[i])):
+            img = pool.level_image(i, k)
+            n_all = ((img.shape[0] - s.height_px) // 2 + 1) * ((img.shape[1] - s.width_px) // 2 + 1)
+            hits = scan_image(cascade, img, step_px=2, max_hits=n_all + 1)
+            if len(avoid) and len(hits):
+                boat = iou_matrix(pool.to_source(i, k, hits), avoid).max(axis=1) > s.neg_iou_max
+                n_all -= int(boat.sum())
+                hits = hits[~boat]
+            stats[k_src][0] += n_all
+            stats[k_src][1] += len(hits)
+            if len(hits) == 0:
+                continue
+            hits = hits[rng.random(len(hits)) < q[k_src]]
+            if len(hits):
+                got[k_src].append(np.stack([img[y:y + s.height_px, x:x + s.width_px] for y, x, _ in hits]))
+    parts, part_src = [], []
+    for k in kinds:
+        if got[k]:
+            w = np.concatenate(got[k])
+            n_k = int(round(n_needed * s.mine_weights.get(k, 0.2) / wsum))
+            if len(w) > n_k:
+                w = w[np.sort(rng.choice(len(w), n_k, replace=False))]
+            parts.append(w)
+            part_src += [k] * len(w)
+    if not parts:
+        return np.zeros((0, s.height_px, s.width_px), np.uint8), np.zeros(0, dtype="<U8"), {
+            k: tuple(v) for k, v in stats.items()}
+    neg = np.concatenate(parts)
+    src = np.asarray(part_src)
+    perm = rng.permutation(len(neg))
+    return neg[perm], src[perm], {k: tuple(v) for k, v in stats.items()}
 
 
 def mine_negatives(
@@ -352,6 +523,16 @@ def train_cascade(
     }
     cache = _GreyCache()
     neg = np.zeros((0, s.height_px, s.width_px), np.uint8)
+    neg_src = np.zeros(0, dtype="<U8")
+    pool = None
+    expected_pass: dict[str, float] = {}
+    if s.scan_mining_stages > 0:
+        t0 = time.perf_counter()
+        pool = ScanPool(train_images, (s.width_px, s.height_px), s.scan_scale_factor, s.scan_box_ratio_w,
+                        s.scan_max_upscale, s.scan_roi_margin_frac)
+        log(f"  scan pool: {int(pool.n_windows.sum())} windows at the detection scale on "
+            f"{len(train_images)} images ({time.perf_counter() - t0:.1f} s)")
+        record["scan_pool_windows"] = int(pool.n_windows.sum())
     fa_total = 1.0
     stop_reason = "stage count"
     for st in range(s.n_stages):
@@ -361,8 +542,24 @@ def train_cascade(
             break
         t0 = time.perf_counter()
         n_neg_needed = int(s.neg_per_pos * len(pos))
-        more, n_scan, n_acc = mine_negatives(cascade, neg_images, n_neg_needed - len(neg), s, rng, cache)
+        scan_fa = None
+        if pool is not None and st < s.scan_mining_stages:
+            more, more_src, stats = mine_scan_negatives(cascade, pool, n_neg_needed - len(neg), s, rng,
+                                                        expected_pass)
+            n_scan = sum(v[0] for v in stats.values())
+            n_acc = sum(v[1] for v in stats.values())
+            expected_pass = {k: v[1] / max(v[0], 1) for k, v in stats.items()}
+            scan_fa = {k: round(v, 5) for k, v in expected_pass.items()}
+            log(f"  scan mining: accepted share by source {scan_fa}")
+            if len(neg) + len(more) < n_neg_needed:  # too few windows left at the detection scale
+                extra, n2, a2 = mine_negatives(cascade, neg_images, n_neg_needed - len(neg) - len(more), s, rng, cache)
+                more = np.concatenate([more, extra])
+                more_src = np.concatenate([more_src, np.full(len(extra), "crop")])
+        else:
+            more, n_scan, n_acc = mine_negatives(cascade, neg_images, n_neg_needed - len(neg), s, rng, cache)
+            more_src = np.full(len(more), "crop")
         neg = np.concatenate([neg, more])
+        neg_src = np.concatenate([neg_src, more_src])
         if n_scan:
             fa_total = n_acc / n_scan
         log(f"stage {st}: {len(pos)} pos, {len(neg)} neg (mined {len(more)} of {n_scan} scanned windows, "
@@ -387,10 +584,17 @@ def train_cascade(
         keep = res.passed
         n_p = len(pos)
         pos = pos[keep[:n_p]]
-        neg = neg[keep[n_p:]]
+        neg_pass = keep[n_p:]
+        # expected share of the pool's windows the cascade will still accept after this stage:
+        # the negatives of each source are a uniform sample of what it accepted before
+        for k in list(expected_pass):
+            m = neg_src == k
+            expected_pass[k] *= float(neg_pass[m].mean()) if m.any() else float(res.false_alarm)
+        neg = neg[neg_pass]
+        neg_src = neg_src[neg_pass]
         info = {"stage": st, "n_weak": len(res.stage.feature), "hit_rate": res.hit_rate,
                 "false_alarm": res.false_alarm, "n_pos": int(n_p), "n_neg": int(len(labels) - n_p),
-                "cascade_fa_before": fa_total, "features_s": round(t_feat, 1), "boost_s": round(res.seconds, 1),
+                "cascade_fa_before": fa_total, "scan_accepted_share": scan_fa, "features_s": round(t_feat, 1), "boost_s": round(res.seconds, 1),
                 "elapsed_s": round(time.perf_counter() - t_start, 1)}
         record["stages"].append(info)
         log(f"  stage {st}: {info['n_weak']} stumps, HR {res.hit_rate:.4f}, FA {res.false_alarm:.3f} "
