@@ -524,15 +524,15 @@ def train_cascade(
     cache = _GreyCache()
     neg = np.zeros((0, s.height_px, s.width_px), np.uint8)
     neg_src = np.zeros(0, dtype="<U8")
-    pool = None
+    scan_pool = None
     expected_pass: dict[str, float] = {}
     if s.scan_mining_stages > 0:
         t0 = time.perf_counter()
-        pool = ScanPool(train_images, (s.width_px, s.height_px), s.scan_scale_factor, s.scan_box_ratio_w,
+        scan_pool = ScanPool(train_images, (s.width_px, s.height_px), s.scan_scale_factor, s.scan_box_ratio_w,
                         s.scan_max_upscale, s.scan_roi_margin_frac)
-        log(f"  scan pool: {int(pool.n_windows.sum())} windows at the detection scale on "
+        log(f"  scan pool: {int(scan_pool.n_windows.sum())} windows at the detection scale on "
             f"{len(train_images)} images ({time.perf_counter() - t0:.1f} s)")
-        record["scan_pool_windows"] = int(pool.n_windows.sum())
+        record["scan_pool_windows"] = int(scan_pool.n_windows.sum())
     fa_total = 1.0
     stop_reason = "stage count"
     for st in range(s.n_stages):
@@ -543,8 +543,8 @@ def train_cascade(
         t0 = time.perf_counter()
         n_neg_needed = int(s.neg_per_pos * len(pos))
         scan_fa = None
-        if pool is not None and st < s.scan_mining_stages:
-            more, more_src, stats = mine_scan_negatives(cascade, pool, n_neg_needed - len(neg), s, rng,
+        if scan_pool is not None and st < s.scan_mining_stages:
+            more, more_src, stats = mine_scan_negatives(cascade, scan_pool, n_neg_needed - len(neg), s, rng,
                                                         expected_pass)
             n_scan = sum(v[0] for v in stats.values())
             n_acc = sum(v[1] for v in stats.values())
