@@ -479,3 +479,74 @@ def sea_shade_grid(out, tex, grid, base, y0, step, seg, wts, gain, glint_col):
                 d = (np.float32(tt[4 * x]) - c128) * am
                 v = btop[0, x] + b * bdif[0, x] + d * g0 + np.float32(tt[4 * x + 1]) * gl * l0 + half
                 ot[x] = np.uint8(int(min(max(v, zero), c255)))
+
+
+@numba.njit(cache=True, nogil=True)
+def view_grid(az, el, ref_az, pano, height_m, r_eff_m, sea, inv, out):
+    """Panorama coordinates and sea parameters of the coarse grid samples, in one pass.
+
+    Parameters
+    ----------
+    az, el : (gh, gw) float64
+        Azimuth (clockwise from north) and elevation of the samples, degrees.
+    ref_az : float
+        The panorama's reference azimuth, degrees.
+    pano : (5,) float64
+        ``az_min, el_max, band_el_max, ppd_lo, ppd_hi`` of the panorama (degrees, pixels per degree).
+    height_m, r_eff_m : float
+        Camera height above the sea and effective Earth radius (refraction included).
+    sea : (7,) float64
+        ``r_a, texel_m, wave_contrast, glint, sun_az_deg, sun_on, waves``: the range where waves
+        fade (m), the wave texel (m), the render options' contrast and glint, the sun's azimuth,
+        1 when the sun is up, 1 when waves are drawn.
+    inv : (2, 2) float64
+        Camera ENU -> world ENU (identity when the camera's frame is the world's).
+    out : (9, gh, gw) float64
+        Written: ``lox, loy`` (coarse panorama), ``hix, hiy`` (sharp band), ``tx, ty`` (wave texels),
+        wave contrast, glint strength and the ground range ``r`` (m; NaN above the horizon).
+    """
+    az_min, el_max, band_el_max, ppd_lo, ppd_hi = pano[0], pano[1], pano[2], pano[3], pano[4]
+    r_a, texel, contrast, glint, sun_az, sun_on, waves = sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6]
+    r0 = 1.5 * r_a
+    h, R = height_m, r_eff_m
+    hR = h + R
+    c2 = hR * hR - R * R
+    d2r = np.pi / 180.0
+    gh, gw = az.shape
+    for i in range(gh):
+        for j in range(gw):
+            a, e = az[i, j], el[i, j]
+            a_rel = (a - ref_az + 180.0) % 360.0 - 180.0
+            out[0, i, j] = (a_rel - az_min) * ppd_lo - 0.5
+            out[1, i, j] = (el_max - e) * ppd_lo - 0.5
+            out[2, i, j] = (a_rel - az_min) * ppd_hi - 0.5
+            out[3, i, j] = (band_el_max - e) * ppd_hi - 0.5
+            # where the ray meets the curved sea (as CameraModel.pixel_to_sea_enu)
+            er = e * d2r
+            wz = np.sin(er)
+            b = wz * hR
+            disc = b * b - c2
+            r = np.nan
+            if disc >= 0:
+                t = -b - np.sqrt(disc)
+                if t > 0:
+                    r = R * np.arctan2(t * np.cos(er), hR + t * wz)
+            out[8, i, j] = r
+            above = not np.isfinite(r)
+            rs = 1e9 if above else r
+            rc = rs if rs < r0 else r0 + r0 * (1.0 - r0 / max(rs, r0))
+            ar = a * d2r
+            ex, ny = rc * np.sin(ar), rc * np.cos(ar)
+            ex, ny = inv[0, 0] * ex + inv[0, 1] * ny, inv[1, 0] * ex + inv[1, 1] * ny
+            out[4, i, j] = ex / texel
+            out[5, i, j] = -ny / texel
+            if above or waves == 0.0:
+                out[6, i, j] = 0.0
+                out[7, i, j] = 0.0
+                continue
+            q = rs / r_a
+            out[6, i, j] = contrast * np.exp(-(q * q)) * (0.35 + 0.65 * np.exp(-rs / 4000))
+            daz = (a - sun_az + 180.0) % 360.0 - 180.0
+            dq = daz / 18.0
+            q2 = rs / (2.5 * r_a)
+            out[7, i, j] = glint * (0.12 + np.exp(-(dq * dq)) * sun_on) * np.exp(-(q2 * q2))

@@ -43,6 +43,7 @@ from seawatch.sim._kernels import (
     sea_maps_grid,
     sea_shade_grid,
     sea_waves_grid,
+    view_grid,
 )
 from seawatch.sim.texture import (
     CoastSpec,
@@ -174,19 +175,6 @@ def _grid_cols(w: int, step: int, gw: int) -> tuple[np.ndarray, np.ndarray]:
     return seg, b
 
 
-def _sea_range_m(el_rad: np.ndarray, height_m: float, r_eff_m: float) -> np.ndarray:
-    """Ground distance (m) to where rays of elevation ``el_rad`` meet the curved sea (NaN above
-    the horizon); the same geometry as :meth:`CameraModel.pixel_to_sea_enu`."""
-    h, R = height_m, r_eff_m
-    wz = np.sin(el_rad)
-    b = wz * (h + R)
-    disc = b * b - ((h + R) ** 2 - R * R)
-    with np.errstate(invalid="ignore"):
-        t = -b - np.sqrt(disc)
-    t = np.where((disc >= 0) & (t > 0), t, np.nan)
-    return R * np.arctan2(t * np.cos(el_rad), h + R + t * wz)
-
-
 class _PanoLevel:
     """Panoramas (background plus animated sea, one per wave frame) at one zoom step."""
 
@@ -304,6 +292,9 @@ class Renderer:
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
         self.waves = wave_field or WaveField(seed=self.seed + 7)
         self.world_to_camera = None if world_to_camera is None else np.asarray(world_to_camera, float)
+        # camera ENU -> world ENU directions (the wave texture is anchored to the world)
+        self._cam_to_world = np.eye(2) if world_to_camera is None else np.linalg.inv(self.world_to_camera[:, :2])
+        self._pano_geo = np.array([p.az_min, p.el_max, p.band_el_max, p.ppd_lo, p.ppd_hi], np.float64)
         span = max(pr[1] - pr[0], tr[1] - tr[0])
         self.use_panorama = bool(0.0 < span <= _PANO_MAX_SPAN_DEG) if panorama is None else bool(panorama)
         hr = options.sea_half_res
@@ -374,47 +365,29 @@ class Renderer:
             g = self._grid = (gw, gh, U, V)
         return g
 
-    def _sea_params(self, az, r, f_px: float):
-        """Wave-texture coordinates (texels), wave contrast and glint strength of sea points seen
-        along azimuths ``az`` (deg) at ground ranges ``r`` (m; NaN above the horizon), for a camera
-        of focal length ``f_px`` (the waves fade out where they get smaller than a few pixels)."""
-        h = self.height_m
+    def _grid_params(self, az, el, f_px: float, r_eff_m: float) -> np.ndarray:
+        """Panorama coordinates and sea parameters of grid samples seen along azimuths ``az`` and
+        elevations ``el`` (deg), for a camera of focal length ``f_px``: a (9, gh, gw) array of
+        ``lox, loy, hix, hiy`` (coarse panorama and sharp band), ``tx, ty`` (wave texels), wave
+        contrast, glint strength and ground range (m; NaN above the horizon).  The texture is
+        anchored to the world and compressed beyond ``1.5 r_a`` so it stays bounded; the waves fade
+        out beyond ``r_a``, where they get smaller than a few pixels."""
+        p, o, sky = self.pano, self.options, self.sky
         lam = 6.0
-        r_a = math.sqrt(f_px * h * lam / 3.0)
-        r0 = 1.5 * r_a
-        above = ~np.isfinite(r)
-        azr = np.radians(az)
-        r_s = np.where(above, 1e9, r)
-        rc = np.where(r_s < r0, r_s, r0 + r0 * (1.0 - r0 / np.maximum(r_s, r0)))
-        ex, ny = rc * np.sin(azr), rc * np.cos(azr)
-        if self.world_to_camera is not None:  # texture anchored to the world, not the camera
-            A = self.world_to_camera[:, :2]
-            inv = np.linalg.inv(A)
-            ex, ny = inv[0, 0] * ex + inv[0, 1] * ny, inv[1, 0] * ex + inv[1, 1] * ny
-        texel = self.waves.texel_m
-        tx, ty = ex / texel, -ny / texel
-        o = self.options
-        amp = np.where(above, 0.0, o.wave_contrast * np.exp(-(r_s / r_a) ** 2) * (0.35 + 0.65 * np.exp(-r_s / 4000)))
-        daz = (az - self.sky.sun_az_deg + 180.0) % 360.0 - 180.0
-        path = 0.12 + np.exp(-(daz / 18.0) ** 2) * (1.0 if self.sky.sun_el_deg > 0 else 0.0)
-        gl = np.where(above, 0.0, o.glint * path * np.exp(-(r_s / (2.5 * r_a)) ** 2))
-        if not o.waves:
-            amp = amp * 0
-            gl = gl * 0
-        return tx, ty, amp, gl
+        r_a = math.sqrt(f_px * self.height_m * lam / 3.0)
+        sea = np.array([r_a, self.waves.texel_m, o.wave_contrast, o.glint, sky.sun_az_deg,
+                        1.0 if sky.sun_el_deg > 0 else 0.0, 1.0 if o.waves else 0.0])
+        out = np.empty((9,) + az.shape)
+        view_grid(az, el, self.ref_az, self._pano_geo, self.height_m, r_eff_m, sea, self._cam_to_world, out)
+        return out
 
     def _build_view(self, cam: CameraModel) -> _View:
         W, H, s = self.W, self.H, _GRID_PX
         gw, gh, U, V = self._grid_px()
         az, el = cam.pixel_to_azel(U, V)
-        az_rel = (az - self.ref_az + 180.0) % 360.0 - 180.0
         pano = self.pano
-        lox, loy = pano.lo_xy(az_rel, el)
-        hix, hiy = pano.hi_xy(az_rel, el)
-        # sea-surface texture coordinates, compressed beyond r0 so they stay bounded
-        r = _sea_range_m(np.radians(el), self.height_m, cam.r_eff_m)  # as cam.pixel_to_sea_enu(U, V)
         f_px = float(cam.intrinsics.fy)
-        tx, ty, amp, gl = self._sea_params(az, r, f_px)
+        lox, loy, hix, hiy, tx, ty, amp, gl, _ = self._grid_params(az, el, f_px, cam.r_eff_m)
 
         def up(step, size, chans, r0=0):
             return _upsample_grid(np.stack(chans, axis=-1), gw, step, size, r0)
@@ -603,9 +576,9 @@ class Renderer:
         az_rel = p.az_min + (gx + 0.5) / ppd
         el = p.el_max - (gy + 0.5) / ppd
         az = np.broadcast_to((self.ref_az + az_rel[None, :]) % 360.0, (gh, gw))
-        r = np.broadcast_to(_sea_range_m(np.radians(el)[:, None], self.height_m, self.ref_camera.r_eff_m), (gh, gw))
-        tx, ty, amp, gl = self._sea_params(az, r, L.f_px)
-        grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
+        g = self._grid_params(np.ascontiguousarray(az), np.repeat(el[:, None], gw, axis=1), L.f_px,
+                              self.ref_camera.r_eff_m)
+        grid = np.ascontiguousarray(np.moveaxis(g[4:8], 0, -1), np.float32)
         sea_waves_grid(out, r0, grid, s, self.waves.frame_by_index(fi), self._gain, self._glint_col,
                        hi_map, 0, self._water_top_y)
         return out
