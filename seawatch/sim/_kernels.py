@@ -550,3 +550,113 @@ def view_grid(az, el, ref_az, pano, height_m, r_eff_m, sea, inv, out):
             dq = daz / 18.0
             q2 = rs / (2.5 * r_a)
             out[7, i, j] = glint * (0.12 + np.exp(-(dq * dq)) * sun_on) * np.exp(-(q2 * q2))
+
+
+@numba.njit(cache=True, nogil=True)
+def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, face_idx, face_nvert, face_part,
+                part_centres, cam_local, sun_local, out):
+    """Draw one vessel's faces into a canvas of its own, composite it into ``img`` and write
+    ``lab`` into ``label`` where it shows.
+
+    The faces that face the camera are filled (:func:`fill_polys`): the hull first, then the other
+    parts far to near, each part's faces in their stored order.  A face's colour is its base colour,
+    shaded by the sun when ``shade`` (``base * (0.55 + 0.5 * clip(n . sun, 0, 1))``), rounded and
+    kept within 1-255 (the canvas' zeros mark "no vessel").
+
+    Parameters
+    ----------
+    img : (H, W, C) uint8
+    label : (H, W) uint8
+    lab : int
+        Label value of this vessel.
+    uu, vv : (V,) float64
+        Projected vertices (pixels).
+    normals, centres : (F, 3) float64
+        Face normals and centres in the vessel frame.
+    base_cols : (F, C) float64
+    shade : bool
+    face_idx : (F, K) int64; face_nvert, face_part : (F,) int64
+    part_centres : (P, 3) float64
+    cam_local, sun_local : (3,) float64
+        The camera's position and the sun's direction in the vessel frame.
+    out : (9,) int64
+        Written: ``full_px`` (pixels of the whole silhouette, 0 when nothing shows), the image
+        region ``ix0, iy0, ix1, iy1`` and the visible pixels' extent ``bx0, by0, bx1, by1``.
+    """
+    H, W, C = img.shape
+    out[:] = 0
+    x0 = int(np.floor(uu.min())) - 1
+    y0 = int(np.floor(vv.min())) - 1
+    x1 = int(np.ceil(uu.max())) + 2
+    y1 = int(np.ceil(vv.max())) + 2
+    if x1 - x0 > 2 * W or y1 - y0 > 2 * H:  # cap the canvas of enormous (very near) vessels
+        x0, x1 = max(x0, (-W) // 2), min(x1, W + W // 2)
+        y0, y1 = max(y0, (-H) // 2), min(y1, H + H // 2)
+    cw, ch = x1 - x0, y1 - y0
+    if cw <= 0 or ch <= 0:
+        return
+    F, K = face_idx.shape
+    P = part_centres.shape[0]
+    # faces towards the camera
+    vis = np.empty(F, np.bool_)
+    nvis = 0
+    for f in range(F):
+        d = (normals[f, 0] * (cam_local[0] - centres[f, 0]) + normals[f, 1] * (cam_local[1] - centres[f, 1])
+             + normals[f, 2] * (cam_local[2] - centres[f, 2]))
+        vis[f] = d > 0
+        nvis += vis[f]
+    # parts in drawing order: the hull (part 0), then the others far to near (stable)
+    neg = np.empty(P)
+    for p in range(P):
+        dx = part_centres[p, 0] - cam_local[0]
+        dy = part_centres[p, 1] - cam_local[1]
+        dz = part_centres[p, 2] - cam_local[2]
+        neg[p] = -np.sqrt(dx * dx + dy * dy + dz * dz)
+    neg[0] = -np.inf
+    order = np.argsort(neg, kind="mergesort")
+    polys = np.empty((nvis, K, 2))
+    nv = np.empty(nvis, np.int64)
+    cols = np.empty((nvis, C))
+    n = 0
+    for r in range(P):
+        p = order[r] if P > 1 else 0
+        for f in range(F):
+            if not vis[f] or face_part[f] != p:
+                continue
+            for q in range(K):
+                polys[n, q, 0] = uu[face_idx[f, q]] - x0
+                polys[n, q, 1] = vv[face_idx[f, q]] - y0
+            nv[n] = face_nvert[f]
+            lam = 1.0
+            if shade:
+                lam = normals[f, 0] * sun_local[0] + normals[f, 1] * sun_local[1] + normals[f, 2] * sun_local[2]
+                lam = min(max(lam, 0.0), 1.0)
+                lam = 0.55 + 0.5 * lam
+            for k in range(C):
+                v = np.round(base_cols[f, k] * lam) if shade else np.round(base_cols[f, k])
+                cols[n, k] = min(max(v, 1.0), 255.0)
+            n += 1
+    canvas = np.zeros((ch, cw, C), np.uint8)
+    fill_polys(canvas, polys, nv, cols)
+    full = 0
+    for y in range(ch):
+        for x in range(cw):
+            full += canvas[y, x, 0] > 0
+    if full == 0:
+        return
+    ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+    if ix1 <= ix0 or iy1 <= iy0:
+        return
+    bx0, by0, bx1, by1 = ix1, iy1, ix0, iy0
+    for y in range(iy0, iy1):
+        for x in range(ix0, ix1):
+            if canvas[y - y0, x - x0, 0] > 0:
+                for k in range(C):
+                    img[y, x, k] = canvas[y - y0, x - x0, k]
+                label[y, x] = lab
+                bx0, by0 = min(bx0, x), min(by0, y)
+                bx1, by1 = max(bx1, x + 1), max(by1, y + 1)
+    if bx1 <= bx0:
+        return
+    out[0], out[1], out[2], out[3], out[4] = full, ix0, iy0, ix1, iy1
+    out[5], out[6], out[7], out[8] = bx0, by0, bx1, by1

@@ -37,6 +37,7 @@ from seawatch.camera import CameraModel
 from seawatch.sim._kernels import (
     blend_foam,
     blend_reflection,
+    draw_vessel,
     fill_polys,
     first_water_rows,
     last_dry_row,
@@ -304,6 +305,8 @@ class Renderer:
         self._views: OrderedDict[tuple, _View] = OrderedDict()
         self._tiles4: dict[int, np.ndarray] = {}
         self._bufs: dict[str, np.ndarray] = {}
+        self._face_cols: dict[int, np.ndarray] = {}  # vessel -> base colour of its faces (F, C)
+        self._draw_res = np.zeros(9, np.int64)
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
         # noise pools (static; a random offset per frame)
@@ -897,58 +900,25 @@ class Renderer:
         return drawn
 
     def _draw_one(self, img, label, k, uu, vv, cam_local, sun_local):
-        """Draw vessel ``k`` into a canvas of its own, composite it and label its pixels."""
-        W, H, C = self.W, self.H, self.C
+        """Draw vessel ``k`` into a canvas of its own, composite it and label its pixels
+        (:func:`draw_vessel`): ``(full_px, (x0, y0, x1, y1))`` of its visible pixels, or None."""
         vessel = self.world.vessels[k]
-        x0 = int(math.floor(uu.min())) - 1
-        y0 = int(math.floor(vv.min())) - 1
-        x1 = int(math.ceil(uu.max())) + 2
-        y1 = int(math.ceil(vv.max())) + 2
-        if x1 - x0 > 2 * W or y1 - y0 > 2 * H:  # cap the canvas of enormous (very near) vessels:
-            x0, x1 = max(x0, -W // 2), min(x1, W + W // 2)  # their visible fraction then ignores
-            y0, y1 = max(y0, -H // 2), min(y1, H + H // 2)  # what lies beyond half a frame outside
-        cw, ch = x1 - x0, y1 - y0
-        if cw <= 0 or ch <= 0:
-            return None
-        canvas = np.zeros((ch, cw, C), np.uint8)
         m = vessel.model
-        vis = np.einsum("ij,ij->i", m.all_normals, cam_local[None, :] - m.all_centres) > 0
-        if self.options.ir:
-            cols = m.all_ir[:, None]
-        else:
-            lam = np.minimum(np.maximum(m.all_normals @ sun_local, 0), 1)
-            cols = m.all_bgr * (0.55 + 0.5 * lam[:, None])
-        cols = np.minimum(np.maximum(np.round(cols), 1), 255)  # never 0: the canvas' zeros mark "no vessel"
-        n_parts = len(m.parts)
-        fsel = np.nonzero(vis)[0]
-        if n_parts > 1:  # hull first, then the other parts far to near
-            dd = m.part_centres - cam_local[None, :]
-            d = np.sqrt(np.add.reduce(dd * dd, axis=1))  # (what np.linalg.norm computes)
-            d[0] = np.inf
-            rank = np.empty(n_parts, np.int64)
-            rank[np.argsort(-d, kind="stable")] = np.arange(n_parts)
-            fsel = fsel[np.argsort(rank[m.face_part[fsel]], kind="stable")]
-        idx = m.face_idx[fsel]
-        polys = np.empty(idx.shape + (2,))
-        polys[..., 0] = uu[idx] - x0
-        polys[..., 1] = vv[idx] - y0
-        fill_polys(canvas, polys, m.face_nvert[fsel], cols[fsel])
-        mask = canvas[..., 0] > 0
-        full_px = int(np.count_nonzero(mask))
+        cols = self._face_cols.get(k)
+        if cols is None:
+            cols = self._face_cols[k] = np.ascontiguousarray(m.all_ir[:, None] if self.options.ir else m.all_bgr,
+                                                             np.float64)
+        res = self._draw_res
+        draw_vessel(img, label, k + 1, np.ascontiguousarray(uu), np.ascontiguousarray(vv), m.all_normals,
+                    m.all_centres, cols, not self.options.ir, m.face_idx, m.face_nvert, m.face_part,
+                    m.part_centres, cam_local, sun_local, res)
+        full_px, ix0, iy0, ix1, iy1, bx0, by0, bx1, by1 = (int(x) for x in res)
         if full_px == 0:
             return None
-        ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
-        if ix1 <= ix0 or iy1 <= iy0:
-            return None
-        cm = mask[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0]
-        if not cm.any():
-            return None
-        np.copyto(img[iy0:iy1, ix0:ix1], canvas[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0], where=cm[..., None])
-        label[iy0:iy1, ix0:ix1][cm] = k + 1
         if self.options.ir and self.options.ir_halo > 0:
+            cm = label[iy0:iy1, ix0:ix1] == k + 1
             self._halo(img, label, cm, ix0, iy0, ix1, iy1, vessel)
-        bx, by, bw, bh = cv2.boundingRect(cm.view(np.uint8))
-        return full_px, (ix0 + bx, iy0 + by, ix0 + bx + bw, iy0 + by + bh)
+        return full_px, (bx0, by0, bx1, by1)
 
     def _halo(self, img, label, cm, ix0, iy0, ix1, iy1, vessel):
         """A soft bright glow around a warm vessel (thermal sensors' halo), outside its pixels."""
