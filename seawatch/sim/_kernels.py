@@ -660,3 +660,86 @@ def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, fac
         return
     out[0], out[1], out[2], out[3], out[4] = full, ix0, iy0, ix1, iy1
     out[5], out[6], out[7], out[8] = bx0, by0, bx1, by1
+
+
+@numba.njit(cache=True, nogil=True)
+def _wake_strip(Q, q0, le, ln_, re, rn):
+    """Quads ``q0 ..`` of a strip between the left (``le``, ``ln_``) and right (``re``, ``rn``) edges
+    (one quad per pair of consecutive samples)."""
+    for s in range(le.shape[0] - 1):
+        Q[q0 + s, 0, 0], Q[q0 + s, 0, 1] = le[s], ln_[s]
+        Q[q0 + s, 1, 0], Q[q0 + s, 1, 1] = le[s + 1], ln_[s + 1]
+        Q[q0 + s, 2, 0], Q[q0 + s, 2, 1] = re[s + 1], rn[s + 1]
+        Q[q0 + s, 3, 0], Q[q0 + s, 3, 1] = re[s], rn[s]
+
+
+@numba.njit(cache=True, nogil=True)
+def wake_quads(e, n, fx, fy, sp, L, B, tau, decay, Q, al):
+    """World quads of the vessels' wakes: the turbulent wake behind the stern, the two Kelvin arms
+    spreading from the bow at 19.5 degrees, and the bow wave.
+
+    Parameters
+    ----------
+    e, n : (V, T) float64
+        Each vessel's position ``tau`` seconds ago (ENU metres).
+    fx, fy : (V, T) float64
+        Sine and cosine of its course then.
+    sp, L, B : (V,) float64
+        Speed (m/s), length and beam (m).
+    tau, decay : (T,) float64
+        The ages of the samples (s) and ``exp(-tau / 6)``.
+    Q : (V, 3 (T - 1) + 1, 4, 2) float64
+        Written: the quads' corners (e, n).
+    al : (V, 3 (T - 1) + 1) float64
+        Written: the quads' foam opacity.
+    """
+    V, T = e.shape
+    nq = T - 1
+    trav = np.empty(T)
+    fade = np.empty(T)
+    le, ln_, re, rn = np.empty(T), np.empty(T), np.empty(T), np.empty(T)
+    be, bn, kel, aw = np.empty(T), np.empty(T), np.empty(T), np.empty(T)
+    for v in range(V):
+        Lv, Bv = L[v], B[v]
+        f7 = min(max(sp[v] / 7.0, 0.2), 0.75)
+        for t in range(T):
+            trav[t] = sp[v] * tau[t]
+            fade[t] = f7 * decay[t]
+        # turbulent wake behind the stern
+        for t in range(T):
+            se = e[v, t] - 0.48 * Lv * fx[v, t]
+            sn = n[v, t] - 0.48 * Lv * fy[v, t]
+            wt = 0.45 * Bv * np.sqrt(1 + 0.08 * trav[t] / max(Bv, 1.0))
+            px, py = -fy[v, t], fx[v, t]
+            le[t], ln_[t], re[t], rn[t] = se + px * wt, sn + py * wt, se - px * wt, sn - py * wt
+        _wake_strip(Q[v], 0, le, ln_, re, rn)
+        for s in range(nq):
+            al[v, s] = 0.5 * (fade[s] + fade[s + 1])
+        # Kelvin arms
+        for t in range(T):
+            be[t] = e[v, t] + 0.45 * Lv * fx[v, t]
+            bn[t] = n[v, t] + 0.45 * Lv * fy[v, t]
+            kel[t] = 0.3536 * (trav[t] + 0.3 * Lv) + 0.3 * Bv  # tan(19.47 deg) = 0.3536
+            aw[t] = 0.15 * Bv + 0.03 * trav[t]
+        for j in range(2):
+            side = -1.0 if j == 0 else 1.0
+            for t in range(T):
+                spx, spy = side * -fy[v, t], side * fx[v, t]
+                ce = be[t] + spx * kel[t]
+                cn = bn[t] + spy * kel[t]
+                le[t], ln_[t], re[t], rn[t] = ce - spx * aw[t], cn - spy * aw[t], ce + spx * aw[t], cn + spy * aw[t]
+            _wake_strip(Q[v], nq * (1 + j), le, ln_, re, rn)
+            for s in range(nq):
+                al[v, nq * (1 + j) + s] = 0.6 * al[v, s]
+        # bow wave
+        f0, f1 = fx[v, 0], fy[v, 0]
+        p0, p1 = -f1, f0
+        b0e, b0n = be[0] + 0.05 * Lv * f0, bn[0] + 0.05 * Lv * f1
+        q = 3 * nq
+        Q[v, q, 0, 0], Q[v, q, 0, 1] = b0e, b0n
+        Q[v, q, 1, 0] = b0e - 0.25 * Lv * f0 + 0.55 * Bv * p0
+        Q[v, q, 1, 1] = b0n - 0.25 * Lv * f1 + 0.55 * Bv * p1
+        Q[v, q, 2, 0], Q[v, q, 2, 1] = b0e - 0.3 * Lv * f0, b0n - 0.3 * Lv * f1
+        Q[v, q, 3, 0] = b0e - 0.25 * Lv * f0 - 0.55 * Bv * p0
+        Q[v, q, 3, 1] = b0n - 0.25 * Lv * f1 - 0.55 * Bv * p1
+        al[v, q] = min(0.9, 1.2 * fade[0])

@@ -45,6 +45,7 @@ from seawatch.sim._kernels import (
     sea_shade_grid,
     sea_waves_grid,
     view_grid,
+    wake_quads,
 )
 from seawatch.sim.texture import (
     CoastSpec,
@@ -645,11 +646,21 @@ class Renderer:
 
     # --------------------------------------------------------------------- vessels
     def _vessel_points(self, t_s: float):
-        """World vertices (e, n, up) of every vessel at ``t_s`` and its pose."""
-        out = []
-        for k, v in enumerate(self.world.vessels):
-            e, n, course, speed = (float(x) for x in v.state(t_s))
-            m = v.model
+        """World vertices of every vessel at ``t_s``, concatenated: ``(E, N, Z, bounds, poses)``,
+        vessel ``k``'s vertices at ``bounds[k]:bounds[k + 1]`` and its pose ``poses[k] = (e, n,
+        course, speed, fwd, port, roll, pitch, heave)``."""
+        vs = self.world.vessels
+        cat = self.__dict__.get("_verts_cat")
+        if cat is None:  # every vessel's model vertices in one array, and whose each one is
+            sizes = [len(v.model.verts) for v in vs]
+            verts = np.concatenate([v.model.verts for v in vs]) if vs else np.zeros((0, 3))
+            cat = self._verts_cat = (verts[:, 0].copy(), verts[:, 1].copy(), verts[:, 2].copy(),
+                                     np.repeat(np.arange(len(vs)), sizes), np.cumsum([0] + sizes))
+        x, y, z, owner, bounds = cat
+        poses = []
+        par = np.empty((11, len(vs)))  # e, n, fwd (2), port (2), cos and sin of roll and pitch, heave
+        for k, v in enumerate(vs):
+            e, n, course, speed = (float(a) for a in v.state(t_s))
             c = math.radians(course)
             fwd = (math.sin(c), math.cos(c))
             port = (-math.cos(c), math.sin(c))
@@ -660,15 +671,14 @@ class Renderer:
                 roll = math.radians(5.0 * small) * math.sin(2 * math.pi * t_s / (3.0 + 0.05 * v.length_m) + ph)
                 pitch = math.radians(2.0 * small) * math.sin(2 * math.pi * t_s / (2.5 + 0.04 * v.length_m) + 2 * ph)
                 heave = 0.15 * small * math.sin(2 * math.pi * t_s / 3.1 + 3 * ph)
-            x, y, z = m.verts[:, 0], m.verts[:, 1], m.verts[:, 2]
-            if roll or pitch:
-                cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
-                y, z = y * cr - z * sr, y * sr + z * cr
-                x, z = x * cp - z * sp, x * sp + z * cp
-            we = e + x * fwd[0] + y * port[0]
-            wn = n + x * fwd[1] + y * port[1]
-            out.append((we, wn, z + heave, (e, n, course, speed, fwd, port, roll, pitch, heave)))
-        return out
+            par[:, k] = (e, n, fwd[0], fwd[1], port[0], port[1], math.cos(roll), math.sin(roll), math.cos(pitch),
+                         math.sin(pitch), heave)
+            poses.append((e, n, course, speed, fwd, port, roll, pitch, heave))
+        e, n, f0, f1, p0, p1, cr, sr, cp, sp, heave = par[:, owner]
+        if self.options.vessel_motion:  # the vessels' attitude (roll about the keel, then pitch)
+            y, z = y * cr - z * sr, y * sr + z * cr
+            x, z = x * cp - z * sp, x * sp + z * cp
+        return e + x * f0 + y * p0, n + x * f1 + y * p1, z + heave, bounds, poses
 
     def _to_cam(self, e, n):
         if self.world_to_camera is None:
@@ -833,12 +843,7 @@ class Renderer:
 
     def _draw_vessels(self, img, label, t_s, cam: CameraModel):
         o = self.options
-        pts = self._vessel_points(t_s)
-        sizes = [len(p[0]) for p in pts]
-        bounds = np.cumsum([0] + sizes)
-        E = np.concatenate([p[0] for p in pts])
-        N = np.concatenate([p[1] for p in pts])
-        Z = np.concatenate([p[2] for p in pts])
+        E, N, Z, bounds, poses = self._vessel_points(t_s)
         ce, cn = self._to_cam(E, N)
         nv = len(E)
         if o.reflections:  # one projection for every vertex and its mirror image in the sea
@@ -853,10 +858,10 @@ class Renderer:
         dmin = np.minimum.reduceat(depth[:nv], starts)
         umin, umax = np.minimum.reduceat(u[:nv], starts), np.maximum.reduceat(u[:nv], starts)
         vmin, vmax = np.minimum.reduceat(v[:nv], starts), np.maximum.reduceat(v[:nv], starts)
-        for k, p in enumerate(pts):
+        for k, p in enumerate(poses):
             if dmin[k] <= 0.5:
                 continue  # partly behind the camera: not renderable as a pinhole silhouette
-            e, n = p[3][0], p[3][1]
+            e, n = p[0], p[1]
             cx, cy = self._to_cam(e, n)
             order.append((math.hypot(cx, cy), k, cx, cy))
         order.sort(reverse=True)  # far first
@@ -879,7 +884,7 @@ class Renderer:
             if umax[k] < -1 or vmax[k] < -1 or umin[k] > W or vmin[k] > H:
                 continue
             uu, vv = u[sl], v[sl]
-            e, n, course, speed, fwd, port, roll, pitch, heave = pts[k][3]
+            e, n, course, speed, fwd, port, roll, pitch, heave = poses[k]
             # the camera in the vessel's frame (for back-face culling); far vessels sit lower (curvature)
             cam_up = self.height_m + dist * dist / (2 * cam.r_eff_m) - heave
             if self.world_to_camera is not None:
@@ -971,50 +976,11 @@ class Renderer:
         e = np.array([r[1] for r in rows])  # (V, len(tau))
         n = np.array([r[2] for r in rows])
         c = np.radians(np.array([r[3] for r in rows]))
-        sp = np.array([r[4] for r in rows])[:, None]
-        L = np.array([r[5] for r in rows], float)[:, None]
-        B = np.array([r[6] for r in rows], float)[:, None]
-        fx, fy = np.sin(c), np.cos(c)
-        px, py = -fy, fx  # port
-        trav = sp * tau
-        nq = len(tau) - 1
-        V = len(rows)
+        V, nq = len(rows), len(tau) - 1
         Q = np.empty((V, 3 * nq + 1, 4, 2))
         al = np.empty((V, 3 * nq + 1))
-
-        def strip(q0, le, ln_, re, rn):
-            Q[:, q0:q0 + nq, 0, 0], Q[:, q0:q0 + nq, 0, 1] = le[:, :-1], ln_[:, :-1]
-            Q[:, q0:q0 + nq, 1, 0], Q[:, q0:q0 + nq, 1, 1] = le[:, 1:], ln_[:, 1:]
-            Q[:, q0:q0 + nq, 2, 0], Q[:, q0:q0 + nq, 2, 1] = re[:, 1:], rn[:, 1:]
-            Q[:, q0:q0 + nq, 3, 0], Q[:, q0:q0 + nq, 3, 1] = re[:, :-1], rn[:, :-1]
-
-        # turbulent wake behind the stern
-        se, sn = e - 0.48 * L * fx, n - 0.48 * L * fy
-        wt = 0.45 * B * np.sqrt(1 + 0.08 * trav / np.maximum(B, 1.0))
-        strip(0, se + px * wt, sn + py * wt, se - px * wt, sn - py * wt)
-        fade = np.clip(sp / 7.0, 0.2, 0.75) * np.exp(-tau / 6.0)
-        a_seg = 0.5 * (fade[:, :-1] + fade[:, 1:])
-        al[:, :nq] = a_seg
-        # Kelvin arms, spreading from the bow at 19.5 degrees
-        be, bn = e + 0.45 * L * fx, n + 0.45 * L * fy
-        kel = 0.3536 * (trav + 0.3 * L) + 0.3 * B  # tan(19.47 deg) = 0.3536
-        aw = 0.15 * B + 0.03 * trav
-        for j, side in enumerate((-1.0, 1.0)):
-            ce_, cn_ = be + side * px * kel, bn + side * py * kel
-            strip(nq * (1 + j), ce_ - side * px * aw, cn_ - side * py * aw, ce_ + side * px * aw,
-                  cn_ + side * py * aw)
-            al[:, nq * (1 + j):nq * (2 + j)] = 0.6 * a_seg
-        # bow wave
-        L1, B1 = L[:, 0], B[:, 0]
-        f0, f1, p0, p1 = fx[:, 0], fy[:, 0], px[:, 0], py[:, 0]
-        b0e, b0n = be[:, 0] + 0.05 * L1 * f0, bn[:, 0] + 0.05 * L1 * f1
-        Q[:, -1, 0, 0], Q[:, -1, 0, 1] = b0e, b0n
-        Q[:, -1, 1, 0] = b0e - 0.25 * L1 * f0 + 0.55 * B1 * p0
-        Q[:, -1, 1, 1] = b0n - 0.25 * L1 * f1 + 0.55 * B1 * p1
-        Q[:, -1, 2, 0], Q[:, -1, 2, 1] = b0e - 0.3 * L1 * f0, b0n - 0.3 * L1 * f1
-        Q[:, -1, 3, 0] = b0e - 0.25 * L1 * f0 - 0.55 * B1 * p0
-        Q[:, -1, 3, 1] = b0n - 0.25 * L1 * f1 - 0.55 * B1 * p1
-        al[:, -1] = np.minimum(0.9, 1.2 * fade[:, 0])
+        wake_quads(e, n, np.sin(c), np.cos(c), np.array([r[4] for r in rows]), np.array([r[5] for r in rows], float),
+                   np.array([r[6] for r in rows], float), tau, _WAKE_DECAY, Q, al)
         ce, cn = self._to_cam(Q[..., 0], Q[..., 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
         ok = (dd > 0.5).all(axis=-1)  # (V, q)
@@ -1086,3 +1052,4 @@ def _remap_into(dst: np.ndarray, src: np.ndarray, maps: np.ndarray, scratch: np.
 
 
 _WAKE_TAU = np.array([0.0, 1.0, 2.5, 4.5, 7.0, 10.0, 14.0])
+_WAKE_DECAY = np.exp(-_WAKE_TAU / 6.0)
