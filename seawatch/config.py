@@ -58,6 +58,8 @@ class DetectorSettings:
     canny_prune: bool = True  # drop cascade windows with too few Canny edge pixels
     horizon_tau_s: float = 0.5  # time constant of the horizon line's smoothing
     water_roi: bool = True  # with the horizon filter, scan only below the horizon line
+    # cascade: each pyramid level scans only the rows that can give an accepted detection (horizon)
+    cascade_scan_region: bool = True
     # robust Kalman background model (paper C); see docs/paper_c.md
     rk_k_sigma: float = 8.0  # foreground beyond k sqrt(P_pred + r) (paper: 3)
     rk_window_s: float = 20.0  # memory of the EM statistics (paper: N = 50 frames)

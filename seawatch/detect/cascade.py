@@ -80,6 +80,10 @@ class CascadeParams:
     horizon_every_s: float = 0.2  # detect the line at most 5 times a second (smoothed in between)
     water_roi: bool = True  # with the horizon filter: scan only below the horizon (less a margin)
     roi_margin_frac: float = 0.2
+    # with the horizon filter: each pyramid level scans only the rows whose windows can give an
+    # accepted detection (see :meth:`CascadeDetector.scan_region_windows`); supersedes water_roi
+    scan_region: bool = True
+    scan_region_margin_win: float = 0.5  # extra rows above that limit, in window heights (grouping)
     reflection_filter: bool = True
     reflection_min_per_100px2: float = 0.01
     fast_threshold: int = 20
@@ -162,6 +166,7 @@ class CascadeDetector:
             canny_prune=getattr(d, "canny_prune", True),
             horizon_tau_s=getattr(d, "horizon_tau_s", 0.5),
             water_roi=getattr(d, "water_roi", True),
+            scan_region=getattr(d, "cascade_scan_region", True),
         )
 
     # ------------------------------------------------------------------ geometry
@@ -206,6 +211,98 @@ class CascadeDetector:
         sx, sy = w / dw, h / dh
         return rects * np.array([sx, sy, sx, sy]), counts
 
+    def _levels(self, dw: int, dh: int):
+        """OpenCV's pyramid for a ``dw x dh`` image: (factor, float32 factor, level size, window size)."""
+        p = self.params
+        out = []
+        f = 1.0
+        while True:
+            win = (int(np.rint(self.window[0] * f)), int(np.rint(self.window[1] * f)))
+            f32 = np.float32(f)
+            sz = (int(np.rint(np.float32(dw) / f32)), int(np.rint(np.float32(dh) / f32)))
+            if sz[0] < self.window[0] or sz[1] < self.window[1]:
+                break
+            out.append((f, f32, sz, win))
+            f *= p.scale_factor
+        return out
+
+    def scan_region_windows(self, img: np.ndarray, row_min_det: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Grouped cascade windows of one detection-scale image, scanning each pyramid level from
+        a first row on (detection pixels, in the same units as the returned windows).
+
+        ``row_min_det[k]`` is the first window top row scanned at level ``k`` (None: all rows).
+        Every level is scanned by its own ``detectMultiScale`` call on the rows of the level image
+        that OpenCV would build (``INTER_LINEAR_EXACT``, float32 scale, its 2 px grid below scale 2
+        and 1 px grid from 2 on, obtained by scanning the pixel-doubled level at scale 2), so each
+        window scanned gets OpenCV's decision and its box; the raw windows are then grouped as
+        ``detectMultiScale`` groups them (``groupRectangles``, eps 0.2).  With ``row_min_det``
+        None the result equals ``detectMultiScale2`` on the whole image.
+        """
+        p = self.params
+        dh, dw = img.shape
+        ww, wh = self.window
+        raw = []
+        # OpenCV splits each level's rows into stripes sized from the first level's width; with a
+        # 2 px grid the last row can fall outside every stripe, and a per-level call must skip it too
+        n_stripes = max(1, int(np.ceil((dw + 1 - ww) / 32.0)))
+        for k, (f, f32, sz, win) in enumerate(self._levels(dw, dh)):
+            y_lo = 0
+            step = 1 if f32 >= 2.0 else 2
+            szw_h = sz[1] + 1 - wh
+            stripe = max((szw_h // step + n_stripes - 1) // n_stripes, 1) * step
+            y_end = min(n_stripes * stripe, szw_h)  # rows y < y_end are scanned
+            if row_min_det is not None:
+                y_lo = int(np.ceil(max(0.0, float(row_min_det[k])) / float(f32)))
+                y_lo += (-y_lo) % step  # OpenCV's grid starts at row 0
+            if y_end - y_lo <= 0:
+                continue
+            lvl = img if sz == (dw, dh) else cv2.resize(img, sz, interpolation=cv2.INTER_LINEAR_EXACT)
+            y_last = y_lo + ((y_end - 1 - y_lo) // step) * step  # last row scanned
+            part = lvl[y_lo:y_last + wh]
+            if step == 2 and (part.shape[0] + 1 - wh) % 2 == 1:
+                # one more row, never scanned, so that this call's own stripes reach y_last
+                part = np.concatenate([part, part[-1:]], axis=0)
+            if step == 1:
+                big = np.repeat(np.repeat(part, 2, axis=0), 2, axis=1)
+                r, _ = self.classifier.detectMultiScale2(big, scaleFactor=2.0, minNeighbors=0,
+                                                         minSize=(2 * ww, 2 * wh), maxSize=(2 * ww, 2 * wh))
+                r = np.asarray(r, np.int64).reshape(-1, 4)[:, :2] // 2
+            else:
+                r, _ = self.classifier.detectMultiScale2(np.ascontiguousarray(part), scaleFactor=2.0, minNeighbors=0,
+                                                         minSize=(ww, wh), maxSize=(ww, wh))
+                r = np.asarray(r, np.int64).reshape(-1, 4)[:, :2]
+            r = r[r[:, 1] <= y_last - y_lo]
+            if len(r) == 0:
+                continue
+            xy = np.rint(np.stack([r[:, 0], r[:, 1] + y_lo], axis=1).astype(np.float32) * f32).astype(np.int64)
+            raw.append(np.concatenate([xy, np.tile(np.array(win, np.int64), (len(xy), 1))], axis=1))
+        if not raw:
+            return np.zeros((0, 4)), np.zeros(0)
+        rects = np.concatenate(raw).astype(np.int32)
+        mn = int(p.min_neighbors)
+        if mn <= 0:
+            return rects.astype(np.float64), np.ones(len(rects))
+        g, counts = cv2.groupRectangles(rects.tolist(), mn, 0.2)
+        g = np.asarray(g, np.float64).reshape(-1, 4)
+        return g, np.asarray(counts, np.float64).reshape(-1)[: len(g)]
+
+    def region_rows(self, horizon: Horizon, z: float, dw: int, dh: int) -> np.ndarray:
+        """First window top row (detection pixels) per pyramid level that can still give an
+        accepted detection under ``horizon`` (source pixels, resized by ``z``).
+
+        Water-coast line: a box is kept when its centre is on or below the line, so a window of
+        height ``h`` needs its top at or below ``line - (0.5 + dy) h``; water-sky line: its bottom,
+        so ``line - (0.5 + dy + ratio_h / 2) h``; ``line`` is the highest point of the line, and
+        ``scan_region_margin_win`` window heights more are scanned for the windows that group
+        with them.
+        """
+        p = self.params
+        top = float(min(horizon.y_left, horizon.y_right)) * z
+        reach = 0.5 + self.dy_frac + (0.0 if horizon.kind == "coast" else self.ratio_h / 2.0)
+        reach = max(reach, 0.5) + p.scan_region_margin_win
+        wins_h = np.array([lv[3][1] for lv in self._levels(dw, dh)], np.float64)
+        return np.maximum(0.0, top - reach * wins_h)
+
     def detect_grey(self, grey_raw: np.ndarray, t_s: float = 0.0, ir: bool = False
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Boxes and scores on one grey (unsmoothed) image; updates the horizon state.
@@ -220,6 +317,9 @@ class CascadeDetector:
         y0 = 0
         if p.horizon_filter:
             self._update_horizon(grey_raw, t_s, ir)
+            if p.scan_region and self.horizon is not None and self.horizon.width == g.shape[1]:
+                wins, counts = self.region_scan(g)
+                return self.postprocess(g, grey_raw, wins, counts, t_s, ir, update_horizon=False)
             if p.water_roi and self.horizon is not None:
                 y0 = int(max(0.0, np.floor(min(self.horizon.y_left, self.horizon.y_right)
                                            - p.roi_margin_frac * g.shape[0])))
@@ -227,6 +327,23 @@ class CascadeDetector:
         if y0 and len(wins):
             wins = wins + np.array([0.0, y0, 0.0, 0.0])
         return self.postprocess(g, grey_raw, wins, counts, t_s, ir, update_horizon=False)
+
+    def region_scan(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Grouped windows (source pixels) and neighbour counts, scanning only the region that can
+        hold an accepted detection under the current horizon line (see :meth:`region_rows`)."""
+        h, w = g.shape
+        z = self.detection_scale(w)
+        dw, dh = max(1, int(round(w * z))), max(1, int(round(h * z)))
+        if dw < self.window[0] or dh < self.window[1]:
+            return np.zeros((0, 4)), np.zeros(0)
+        img = g if (dw, dh) == (w, h) else cv2.resize(
+            g, (dw, dh), interpolation=cv2.INTER_LINEAR if z > 1 else cv2.INTER_AREA)
+        rows = self.region_rows(self.horizon, dh / h, dw, dh)
+        rects, counts = self.scan_region_windows(img, rows)
+        if len(rects) == 0:
+            return np.zeros((0, 4)), np.zeros(0)
+        sx, sy = w / dw, h / dh
+        return rects * np.array([sx, sy, sx, sy]), counts
 
     def _update_horizon(self, grey_raw: np.ndarray, t_s: float, ir: bool) -> None:
         src = grey_raw if grey_raw.dtype == np.uint8 and not ir else prepare_grey(grey_raw, ir=True, median_px=0)

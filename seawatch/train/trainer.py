@@ -232,6 +232,7 @@ class ScanPool:
         are left out, so that the histogram describes the background the detector meets.
         """
         hist = np.zeros(cascade.n_stages + 1, np.int64)
+        self.last_flat = 0  # flat windows of the last histogram (OpenCV never evaluates them)
         idx = range(len(self.images)) if images is None else images
         for i in idx:
             avoid = _avoid_boxes(self.images[i], aspect, margin) if avoid_boats else np.zeros((0, 4))
@@ -247,6 +248,7 @@ class ScanPool:
                     n_boat = 0
                 hist += np.bincount(hits[:, 2], minlength=cascade.n_stages + 1)[: cascade.n_stages + 1]
                 hist[0] += n_all - len(hits) - n_boat  # flat windows
+                self.last_flat += n_all - len(hits) - n_boat
         return hist
 
 

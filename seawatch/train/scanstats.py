@@ -1,0 +1,150 @@
+"""Where a cascade detector spends its time, on TRAINING and VALIDATION frames (never MarDCT video2).
+
+Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_training_data`):
+
+* :func:`stage_pass_fractions`: the share of the windows the detector scans (automatic detection
+  scale, OpenCV's pyramid and grid, the water region below the horizon) that pass each stage of a
+  cascade, by image source, away from the boats;
+* :func:`region_check`: the detector with the scan region (``scan_region``) against the same
+  detector scanning every row: how many accepted detections differ, and the CPU time of each.
+
+Command line::
+
+    python -m seawatch.train.scanstats --data ../shared/data --model seawatch/models/boat_cascade_v5.xml
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["stage_pass_fractions", "region_check"]
+
+
+def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
+                         roi_margin_frac: float = 0.2) -> dict:
+    """Per-stage pass fractions of a cascade on the windows the detector scans.
+
+    Returns ``{source: {"windows": n, "nonflat": share of windows OpenCV evaluates,
+    "pass_after_stage": [share of the evaluated windows passing stages 0..k]}}`` plus ``"all"``.
+    """
+    from seawatch.train.model import read_cascade_xml
+    from seawatch.train.trainer import ScanPool
+
+    casc = read_cascade_xml(model_xml)
+    out = {}
+    srcs = np.array([im.source for im in images])
+    pool = ScanPool(images, (casc.width_px, casc.height_px), scale_factor, box_ratio_w, 4.0, roi_margin_frac)
+    total = np.zeros(casc.n_stages + 1, np.int64)
+    flat = 0
+    for k in sorted(set(srcs.tolist())):
+        hist = pool.stage_histogram(casc, np.where(srcs == k)[0], aspect=casc.width_px / casc.height_px)
+        total += hist
+        out[k] = _summary(hist, casc, pool.last_flat)
+        flat += pool.last_flat
+    out["all"] = _summary(total, casc, flat)
+    return out
+
+
+def _summary(hist: np.ndarray, casc, n_flat: int) -> dict:
+    n = int(hist.sum())
+    # windows passing at least j + 1 stages; hist[0] also holds the flat windows
+    reach = n - np.cumsum(hist)
+    stumps = np.array([len(st.feature) for st in casc.stages], np.float64)
+    entering = np.concatenate([[n], reach[:-1]])[: casc.n_stages]
+    n_eval = max(n - int(n_flat), 1)
+    entering[0] = n_eval
+    return {"windows": n, "evaluated_share": round(n_eval / max(n, 1), 4),
+            # shares of the evaluated (non-flat) windows passing stages 0..k
+            "pass_after_stage": [round(float(r) / n_eval, 5) for r in reach[:-1]],
+            "stump_evals_per_evaluated_window": round(float((entering * stumps).sum()) / n_eval, 3)}
+
+
+def region_check(model_xml: str | Path, images, sizes=((0, 0), (704, 576)), reps: int = 1) -> dict:
+    """Detections and CPU time of the detector with and without the scan region.
+
+    Each image is a still: the horizon state is reset before it.  ``sizes``: (0, 0) keeps the
+    image's size, else the image is resized to it first.  Returns the counts of accepted
+    detections in the full scan, in the region scan, and of those that differ (a box present in
+    one and not, to 1e-6 px, in the other), and the median CPU ms per frame of each.
+    """
+    from seawatch.detect.cascade import CascadeDetector
+    from seawatch.train.recipe import _raw_grey
+
+    cv2.setNumThreads(1)
+    res = {}
+    for size in sizes:
+        dets = {"full": CascadeDetector(model_xml, scan_region=False, water_roi=False),
+                "region": CascadeDetector(model_xml, scan_region=True),
+                "water_roi": CascadeDetector(model_xml, scan_region=False, water_roi=True)}
+        n = {k: 0 for k in dets}
+        diff = {"region": 0, "water_roi": 0}
+        frames_diff = {"region": 0, "water_roi": 0}
+        ts = {k: [] for k in dets}
+        n_horizon = 0
+        for im in images:
+            g = _raw_grey(im)
+            if size != (0, 0):
+                g = cv2.resize(g, size, interpolation=cv2.INTER_LINEAR)
+            out = {}
+            for k, d in dets.items():
+                for _ in range(reps):
+                    d.reset()
+                    c0 = time.process_time()
+                    out[k] = d.detect_grey(g, 0.0, ir=im.ir)
+                    ts[k].append(time.process_time() - c0)
+                n[k] += len(out[k][0])
+            n_horizon += dets["full"].horizon is not None
+            ref = out["full"][0]
+            for k in diff:
+                b = out[k][0]
+                d_ab = _unmatched(ref, b) + _unmatched(b, ref)
+                diff[k] += d_ab
+                frames_diff[k] += d_ab > 0
+        res[f"{size[0]}x{size[1]}" if size != (0, 0) else "native"] = {
+            "images": len(images), "with_horizon": int(n_horizon),
+            "detections": n, "differing_detections": diff, "differing_images": frames_diff,
+            "cpu_ms_median": {k: round(1000 * float(np.median(v)), 3) for k, v in ts.items()}}
+    return res
+
+
+def _unmatched(a: np.ndarray, b: np.ndarray) -> int:
+    a = np.asarray(a, np.float64).reshape(-1, 4)
+    b = np.asarray(b, np.float64).reshape(-1, 4)
+    if len(b) == 0:
+        return len(a)
+    return int((np.abs(a[:, None, :] - b[None, :, :]).max(axis=2) > 1e-6).all(axis=1).sum())
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", type=Path, required=True)
+    ap.add_argument("--model", type=Path, required=True)
+    ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
+    ap.add_argument("--what", default="stages,region")
+    ap.add_argument("--no-sim", action="store_true")
+    ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
+    a = ap.parse_args(argv)
+    from seawatch.train.recipe import load_training_data
+
+    parts = load_training_data(a.data, use_sim=not a.no_sim, seed=0)
+    imgs = [im for p in a.parts.split(",") for im in parts[p.strip()]]
+    res = {"model": str(a.model), "parts": a.parts, "n_images": len(imgs)}
+    if "stages" in a.what:
+        res["stages"] = stage_pass_fractions(a.model, [im for im in parts["train"]])
+        print(json.dumps(res["stages"], indent=1))
+    if "region" in a.what:
+        res["region"] = region_check(a.model, imgs)
+        print(json.dumps(res["region"], indent=1))
+    if a.out:
+        a.out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
