@@ -743,3 +743,82 @@ def wake_quads(e, n, fx, fy, sp, L, B, tau, decay, Q, al):
         Q[v, q, 3, 0] = b0e - 0.25 * Lv * f0 - 0.55 * Bv * p0
         Q[v, q, 3, 1] = b0n - 0.25 * Lv * f1 - 0.55 * Bv * p1
         al[v, q] = min(0.9, 1.2 * fade[0])
+
+
+@numba.njit(cache=True, nogil=True)
+def draw_wake(img, uu, vv, al, ok, colour, foam, fox):
+    """Blend one vessel's projected wake quads into ``img`` as foam (:func:`blend_foam`).
+
+    Parameters
+    ----------
+    uu, vv : (q, 4) float64
+        The quads' corners in pixels.
+    al : (q,) float64
+        Their opacity.
+    ok : (q,) bool
+        The quads to draw (those wholly in front of the camera).
+    colour : (C,) float32
+    foam : (fh, fw) float32
+        Foam texture, shifted sideways by ``fox`` pixels.
+    """
+    H, W = img.shape[0], img.shape[1]
+    q = 0
+    umin, umax, vmin, vmax = np.inf, -np.inf, np.inf, -np.inf
+    for i in range(uu.shape[0]):
+        if ok[i]:
+            q += 1
+            for c in range(4):
+                umin, umax = min(umin, uu[i, c]), max(umax, uu[i, c])
+                vmin, vmax = min(vmin, vv[i, c]), max(vmax, vv[i, c])
+    if q == 0:
+        return
+    x0 = int(max(0, np.floor(umin) - 1))
+    y0 = int(max(0, np.floor(vmin) - 1))
+    x1 = int(min(W, np.ceil(umax) + 2))
+    y1 = int(min(H, np.ceil(vmax) + 2))
+    if x1 <= x0 or y1 <= y0:
+        return
+    polys = np.empty((q, 4, 2))
+    cols = np.empty((q, 1))
+    n = 0
+    for i in range(uu.shape[0]):
+        if ok[i]:
+            for c in range(4):
+                polys[n, c, 0] = uu[i, c] - x0
+                polys[n, c, 1] = vv[i, c] - y0
+            cols[n, 0] = al[i]
+            n += 1
+    alpha = np.zeros((y1 - y0, x1 - x0, 1), np.float32)
+    fill_polys(alpha, polys, np.full(q, 4, np.int64), cols)
+    blend_foam(img, y0, x0, alpha[:, :, 0], colour, foam, fox)
+
+
+@numba.njit(cache=True, nogil=True)
+def draw_reflection(img, mu, mv, face_idx, face_nvert, cols, a0, phase):
+    """A vessel's mirror image in the water (:func:`blend_reflection`): its faces filled from the
+    mirrored vertices ``mu, mv`` (pixels) with ``cols`` (F, C + 1; colour, then alpha), darkened,
+    fading with depth below the water line and rippled.  Nothing is drawn when it lies off the
+    image, is enormous (a very near vessel) or less than 5 rows tall."""
+    H, W, C = img.shape
+    if mu.shape[0] == 0:
+        return
+    umin, umax, vmin, vmax = mu.min(), mu.max(), mv.min(), mv.max()
+    if not (np.isfinite(umin) and np.isfinite(umax) and np.isfinite(vmin) and np.isfinite(vmax)):
+        return
+    x0, y0 = int(np.floor(umin)) - 1, int(np.floor(vmin)) - 1
+    x1, y1 = int(np.ceil(umax)) + 2, int(np.ceil(vmax)) + 2
+    ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+    if ix1 <= ix0 or iy1 <= iy0 or (x1 - x0) > 4 * W or (y1 - y0) > 4 * H or (y1 - y0) < 5:
+        return
+    F, K = face_idx.shape
+    polys = np.empty((F, K, 2))
+    for f in range(F):
+        for q in range(K):
+            polys[f, q, 0] = mu[face_idx[f, q]] - x0
+            polys[f, q, 1] = mv[face_idx[f, q]] - y0
+    canvas = np.zeros((y1 - y0, x1 - x0, C + 1), np.float32)
+    fill_polys(canvas, polys, face_nvert, cols)
+    top = vmin - y0
+    depth_px = max(1.0, vmax - vmin)
+    amp = min(2.0, 0.05 * (x1 - x0))
+    blend_reflection(img, iy0, ix0, iy1 - iy0, ix1 - ix0, canvas, iy0 - y0, ix0 - x0, a0, top, depth_px, amp, phase)

@@ -35,10 +35,9 @@ import numpy as np
 
 from seawatch.camera import CameraModel
 from seawatch.sim._kernels import (
-    blend_foam,
-    blend_reflection,
+    draw_reflection,
     draw_vessel,
-    fill_polys,
+    draw_wake,
     first_water_rows,
     last_dry_row,
     sea_maps_grid,
@@ -876,7 +875,7 @@ class Renderer:
                 self._draw_wake(img, wakes[k], t_s)
             if o.reflections:
                 msl = slice(nv + bounds[k], nv + bounds[k + 1])
-                self._draw_reflection(img, k, u[msl], v[msl], depth[msl])
+                self._draw_reflection(img, k, u[msl], v[msl])
         # ---- pass 2: vessels, far to near
         drawn = []
         for dist, k, cx, cy in order:
@@ -940,30 +939,16 @@ class Renderer:
         out = np.clip(roi + g * strength, 0, 255).astype(np.uint8)
         np.copyto(roi, out, where=free)
 
-    def _draw_reflection(self, img, k, mu, mv, mdepth):
+    def _draw_reflection(self, img, k, mu, mv):
         """Mirror image of the vessel in the water: darkened, fading with depth, rippled."""
-        W, H, C = self.W, self.H, self.C
-        x0, y0 = int(math.floor(mu.min())) - 1, int(math.floor(mv.min())) - 1
-        x1, y1 = int(math.ceil(mu.max())) + 2, int(math.ceil(mv.max())) + 2
-        ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
-        if ix1 <= ix0 or iy1 <= iy0 or (x1 - x0) > 4 * W or (y1 - y0) > 4 * H or (y1 - y0) < 5:
-            return
         m = self.world.vessels[k].model
-        canvas = np.zeros((y1 - y0, x1 - x0, C + 1), np.float32)
-        polys = np.empty(m.face_idx.shape + (2,))
-        polys[..., 0] = mu[m.face_idx] - x0
-        polys[..., 1] = mv[m.face_idx] - y0
-        fill_polys(canvas, polys, m.face_nvert, m.face_refl_ir if self.options.ir else m.face_refl_bgr)
-        top = float(mv.min() - y0)
-        depth_px = max(1.0, float(mv.max() - mv.min()))
-        a0 = 0.25 if self.options.ir else 0.45
-        amp = min(2.0, 0.05 * (x1 - x0))
-        blend_reflection(img, iy0, ix0, iy1 - iy0, ix1 - ix0, canvas, iy0 - y0, ix0 - x0, a0, top, depth_px, amp,
-                         float(k))
+        draw_reflection(img, mu, mv, m.face_idx, m.face_nvert, m.face_refl_ir if self.options.ir else m.face_refl_bgr,
+                        0.25 if self.options.ir else 0.45, float(k))
 
     def _wake_quads(self, ks, t_s, cam: CameraModel) -> dict:
         """Projected wake quads of vessels ``ks``, all vessels at once: ``k -> (u (q, 4), v (q, 4),
-        alpha (q,))``; the foam of the turbulent wake, the Kelvin arms and the bow wave."""
+        alpha (q,), ok (q,))`` (``ok``: the quads wholly in front of the camera); the foam of the
+        turbulent wake, the Kelvin arms and the bow wave."""
         tau = _WAKE_TAU
         rows = []
         for k in ks:
@@ -984,22 +969,12 @@ class Renderer:
         ce, cn = self._to_cam(Q[..., 0], Q[..., 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
         ok = (dd > 0.5).all(axis=-1)  # (V, q)
-        return {r[0]: (uu[i][ok[i]], vv[i][ok[i]], al[i][ok[i]]) for i, r in enumerate(rows) if ok[i].any()}
+        return {r[0]: (uu[i], vv[i], al[i], ok[i]) for i, r in enumerate(rows)}
 
     def _draw_wake(self, img, quads, t_s):
         """Blend one vessel's projected wake quads (from :meth:`_wake_quads`) as foam."""
-        uu, vv, al = quads
-        W, H = self.W, self.H
-        x0 = int(max(0, math.floor(uu.min()) - 1))
-        y0 = int(max(0, math.floor(vv.min()) - 1))
-        x1 = int(min(W, math.ceil(uu.max()) + 2))
-        y1 = int(min(H, math.ceil(vv.max()) + 2))
-        if x1 <= x0 or y1 <= y0:
-            return
-        alpha3 = np.zeros((y1 - y0, x1 - x0, 1), np.float32)
-        polys = np.stack([uu - x0, vv - y0], axis=-1)
-        fill_polys(alpha3, polys, np.full(len(al), 4, np.int64), al[:, None].astype(np.float64))
-        blend_foam(img, y0, x0, alpha3[..., 0], self._foam_col, self._foam, int(7 * t_s))
+        uu, vv, al, ok = quads
+        draw_wake(img, uu, vv, al, ok, self._foam_col, self._foam, int(7 * t_s))
 
     # ---------------------------------------------------------------------- sensor
     def _finish(self, img: np.ndarray, frame_seed: int) -> np.ndarray:
