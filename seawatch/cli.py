@@ -465,6 +465,10 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--scan-mining-stages", type=int, default=0,
                    help="the first N stages take their negatives from every window the detector scans on the "
                         "training images (automatic detection scale, pyramid, water region) (0)")
+    p.add_argument("--grid-modes", default="0",
+                   help="grids of window positions the settings are chosen for, comma-separated: 0 (OpenCV's: "
+                        "1 px from pyramid scale 2 on), 2 (2 px at every scale); the higher validation score "
+                        "wins, a tie within 0.005 goes to 2 (0)")
     p.add_argument("--select-only", action="store_true",
                    help="do not train: choose the detector settings of the model at --out again on the "
                         "validation part of --data (its JSON is updated)")
@@ -495,6 +499,12 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         raise CLIError(f"--feature-step-px {args.feature_step_px}: at least 1")
     if args.scan_mining_stages < 0:
         raise CLIError(f"--scan-mining-stages {args.scan_mining_stages}: at least 0")
+    try:
+        grid_modes = tuple(int(v) for v in str(args.grid_modes).split(",") if v.strip())
+    except ValueError:
+        grid_modes = ()
+    if not grid_modes or any(g not in (0, 2) for g in grid_modes):
+        raise CLIError(f"--grid-modes {args.grid_modes!r}: expected 0, 2 or 0,2")
     s = TrainSettings(
         early_weak_counts=early,
         feature_pos_step_px=args.feature_step_px, feature_size_step_px=args.feature_step_px,
@@ -532,9 +542,10 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         if not Path(out).is_file():
             raise CLIError(f"--select-only: no model at {out}")
         reselect_model(out, data, use_sim=not args.no_sim, seed=args.seed, command=command,
-                       select_on=args.select_on)
+                       select_on=args.select_on, grid_modes=grid_modes)
         return EXIT_OK
-    train_default_model(data, out, s, use_sim=not args.no_sim, command=command, select_on=args.select_on)
+    train_default_model(data, out, s, use_sim=not args.no_sim, command=command, select_on=args.select_on,
+                        grid_modes=grid_modes)
     return EXIT_OK
 
 

@@ -143,3 +143,21 @@ def test_scan_mining_is_away_from_boats_and_shares_sources():
     np.testing.assert_allclose(pool.to_source(0, 0, np.array([[0, 0, 0]])),
                                [[0.0, 0.0, 30 / pool.z[0], 15 / pool.z[0]]])
     assert casc.n_stages > 0
+
+
+def test_two_px_grid_scans_a_subset_of_opencvs_windows():
+    img, _, _ = _frame(3, coast=False)
+    g = cv2.medianBlur(img, 3)
+    raw = {}
+    for grid in (0, 2):
+        det = CascadeDetector(V5, grid_step_px=grid, min_neighbors=1)
+        det.params.min_neighbors = 0  # raw (ungrouped) windows
+        r, _ = det.scan_region_windows(g, None)
+        raw[grid] = set(map(tuple, r.astype(int).tolist()))
+    w0 = CascadeDetector(V5).window
+    small = lambda s: {t for t in s if t[2] < 2 * w0[0]}
+    assert raw[2] <= raw[0]
+    assert small(raw[2]) == small(raw[0])  # below scale 2 both grids are 2 px
+    assert len(raw[0] - raw[2]) > 0  # from scale 2 on OpenCV's 1 px grid finds more
+    with pytest.raises(ValueError):
+        CascadeDetector(V5, grid_step_px=1)

@@ -83,6 +83,10 @@ class CascadeParams:
     # with the horizon filter: each pyramid level scans only the rows whose windows can give an
     # accepted detection (see :meth:`CascadeDetector.scan_region_windows`); supersedes water_roi
     scan_region: bool = True
+    # grid of window positions: 0 = OpenCV's (2 px below pyramid scale 2, 1 px from 2 on, so large
+    # boats are scanned four times as densely as small ones), 2 = a 2 px grid at every scale (each
+    # level scanned by its own call); -1: the model's value (stored beside it), else 0
+    grid_step_px: int = -1
     scan_region_margin_win: float = 0.5  # extra rows above that limit, in window heights (grouping)
     reflection_filter: bool = True
     reflection_min_per_100px2: float = 0.01
@@ -142,6 +146,10 @@ class CascadeDetector:
             p.scale_factor = float(tuned.get("scale_factor", 1.1))
         if p.neighbors_size_exp < 0:
             p.neighbors_size_exp = float(tuned.get("neighbors_size_exp", 0.0))
+        if p.grid_step_px < 0:
+            p.grid_step_px = int(tuned.get("grid_step_px", 0))
+        if p.grid_step_px not in (0, 2):
+            raise ValueError(f"grid_step_px must be 0 (OpenCV's grid) or 2, got {p.grid_step_px}")
         self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p
@@ -202,8 +210,11 @@ class CascadeDetector:
             grey, (dw, dh), interpolation=cv2.INTER_LINEAR if z > 1 else cv2.INTER_AREA)
         if dw < self.window[0] or dh < self.window[1]:
             return np.zeros((0, 4)), np.zeros(0)
-        rects, counts = self.classifier.detectMultiScale2(
-            img, scaleFactor=p.scale_factor, minNeighbors=int(p.min_neighbors), minSize=self.window)
+        if p.grid_step_px == 2:
+            rects, counts = self.scan_region_windows(img, None)
+        else:
+            rects, counts = self.classifier.detectMultiScale2(
+                img, scaleFactor=p.scale_factor, minNeighbors=int(p.min_neighbors), minSize=self.window)
         rects = np.asarray(rects, np.float64).reshape(-1, 4)
         counts = np.asarray(counts, np.float64).reshape(-1)
         if len(rects) == 0:
@@ -236,7 +247,8 @@ class CascadeDetector:
         and 1 px grid from 2 on, obtained by scanning the pixel-doubled level at scale 2), so each
         window scanned gets OpenCV's decision and its box; the raw windows are then grouped as
         ``detectMultiScale`` groups them (``groupRectangles``, eps 0.2).  With ``row_min_det``
-        None the result equals ``detectMultiScale2`` on the whole image.
+        None (and OpenCV's grid, ``grid_step_px`` 0) the result equals ``detectMultiScale2`` on
+        the whole image; with ``grid_step_px`` 2 every level is scanned on the 2 px grid.
         """
         p = self.params
         dh, dw = img.shape
@@ -247,7 +259,7 @@ class CascadeDetector:
         n_stripes = max(1, int(np.ceil((dw + 1 - ww) / 32.0)))
         for k, (f, f32, sz, win) in enumerate(self._levels(dw, dh)):
             y_lo = 0
-            step = 1 if f32 >= 2.0 else 2
+            step = 1 if (f32 >= 2.0 and p.grid_step_px == 0) else 2
             szw_h = sz[1] + 1 - wh
             stripe = max((szw_h // step + n_stripes - 1) // n_stripes, 1) * step
             y_end = min(n_stripes * stripe, szw_h)  # rows y < y_end are scanned

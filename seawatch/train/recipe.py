@@ -207,7 +207,8 @@ def tune_min_neighbors(model_path: str | Path, images: list[LabelledImage],
 
 def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: TrainSettings | None = None,
                         use_sim: bool = True, command: str = "", log=print,
-                        scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3), select_on: str = "mardct") -> dict:
+                        scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3), select_on: str = "mardct",
+                        grid_modes: tuple[int, ...] = (0,)) -> dict:
     """Train, tune and describe the default boat cascade (see the module docstring)."""
     s = settings or TrainSettings()
     t0 = time.perf_counter()
@@ -226,7 +227,7 @@ def train_default_model(data_dir: str | Path, out_xml: str | Path, settings: Tra
     _update_json(out_xml, calib)
     record.update(calib)
     record.update(choose_detector_settings(out_xml, parts, log=log, scale_factors=scale_factors,
-                                           select_on=select_on))
+                                           select_on=select_on, grid_modes=grid_modes))
     record["split"] = {k: sorted(im.name for im in v) for k, v in parts.items()}
     record["command"] = command
     record["total_time_s"] = round(time.perf_counter() - t0, 1)
@@ -245,7 +246,7 @@ SELECT_ON = {
 
 def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[LabelledImage]], log=print,
                              scale_factors: tuple[float, ...] = (1.1, 1.2, 1.3), select_on: str = "mardct",
-                             report_others: bool = True) -> dict:
+                             report_others: bool = True, grid_modes: tuple[int, ...] = (0,)) -> dict:
     """Choose the detector settings on the validation part, store them beside the model and
     report the held-out part with them (the model's JSON gains ``detector``, ``validation``
     and ``heldout``).
@@ -258,6 +259,10 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
     ``"all"`` (session 10: MarDCT, simulator and CORAL).  With ``report_others`` the chosen
     settings are also scored, not chosen, on the other validation sources
     (``validation_others``).  Never the held-out part, never MarDCT video2.
+
+    ``grid_modes``: the detector's grids of window positions tried (0: OpenCV's; 2: a 2 px grid
+    at every scale; session 13's rule): the best settings of each are found, the grid with the
+    higher score is chosen, and a tie within 0.005 goes to the 2 px grid (fewer windows).
     """
     if select_on not in SELECT_ON:
         raise ValueError(f"select_on {select_on!r}: expected one of {sorted(SELECT_ON)}")
@@ -265,10 +270,23 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
     val = [im for im in parts["val"] if im.source in srcs]
     if not val:
         raise ValueError(f"select_on {select_on!r}: no validation images of {srcs}")
-    best, table = select_detector_settings(model_xml, val, scale_factors=scale_factors,
-                                           fixed_min_size_px={"coral": 20.0}, log=log)
+    per_grid = {}
+    for grid in grid_modes:
+        if len(grid_modes) > 1:
+            log(f"  grid of window positions: {grid} ({'OpenCV' if grid == 0 else f'{grid} px at every scale'})")
+        per_grid[int(grid)] = select_detector_settings(model_xml, val, scale_factors=scale_factors,
+                                                       fixed_min_size_px={"coral": 20.0}, log=log,
+                                                       grid_step_px=int(grid))
+    score = {g: 0.5 * (b["macro_F1@0.3"] + b["macro_F1@0.5"]) for g, (b, _) in per_grid.items()}
+    top = max(score.values())
+    chosen = max(g for g in per_grid if score[g] >= top - 0.005) if len(per_grid) > 1 else next(iter(per_grid))
+    best, table = per_grid[chosen]
     settings = {k: best[k] for k in ("min_neighbors", "scale_factor", "neighbors_size_exp")}
+    if len(grid_modes) > 1 or chosen != 0:
+        settings["grid_step_px"] = int(chosen)
+        log(f"  grid chosen: {chosen} (scores {', '.join(f'{g}: {v:.4f}' for g, v in score.items())})")
     _update_json(model_xml, {"detector": settings})
+    grid_kw = {"grid_step_px": int(chosen)}
     others = {}
     if report_others:
         for src in ("mardct", "sim", "coral"):
@@ -278,7 +296,8 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
             o, _ = select_detector_settings(model_xml, ims, scale_factors=(settings["scale_factor"],),
                                             candidates=(settings["min_neighbors"],),
                                             size_exps=(settings["neighbors_size_exp"],),
-                                            fixed_min_size_px={"coral": 20.0}, log=lambda *a: None)
+                                            fixed_min_size_px={"coral": 20.0}, log=lambda *a: None,
+                                            **grid_kw)
             others[src] = {"images": len(ims), "score": 0.5 * (o["macro_F1@0.3"] + o["macro_F1@0.5"]),
                            **{k: o[k] for k in ("macro_F1@0.3", "macro_F1@0.5", "boats_by_bin")}}
             log(f"  reported, not chosen on: validation {src} ({len(ims)} images) score {others[src]['score']:.3f}")
@@ -288,7 +307,7 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
     for src, kw in (("mardct", {}), ("coral", {"min_size_px": 20.0})):
         ims = [im for im in parts["heldout"] if im.source == src]
         if ims:
-            det = CascadeDetector(model_xml, **kw)
+            det = CascadeDetector(model_xml, **kw, **grid_kw)
             held[src] = evaluate_images(det, ims, min_box_w_px=kw.get("min_size_px", 0.0))
             log(f"  held-out {src} ({len(ims)} images): F1@0.3 {held[src][0.3]['F1']:.3f} "
                 f"F1@0.5 {held[src][0.5]['F1']:.3f} FAR@0.3 {held[src][0.3]['FAR']:.3f}")
@@ -300,18 +319,21 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
                       "validation_images": {src: sum(im.source == src for im in val) for src in ("mardct", "sim", "coral")},
                       "best": best},
         "validation": table,
+        **({"validation_by_grid": {str(g): {"best": b, "score": score[g]} for g, (b, _) in per_grid.items()},
+            **{f"validation_grid{g}": t for g, (_, t) in per_grid.items() if g != chosen}}
+           if len(per_grid) > 1 else {}),
         "validation_others": others,
         "heldout": {k: {str(i): v for i, v in r.items()} for k, r in held.items()},
     }
 
 
 def reselect_model(model_xml: str | Path, data_dir: str | Path, use_sim: bool = True, seed: int = 0,
-                   command: str = "", log=print, select_on: str = "mardct") -> dict:
+                   command: str = "", log=print, select_on: str = "mardct", grid_modes: tuple[int, ...] = (0,)) -> dict:
     """Choose a trained model's detector settings again (:func:`choose_detector_settings`) on the
     split :func:`load_training_data` makes, without retraining; updates the JSON beside it."""
     t0 = time.perf_counter()
     parts = load_training_data(data_dir, use_sim=use_sim, seed=seed)
-    upd = choose_detector_settings(model_xml, parts, log=log, select_on=select_on)
+    upd = choose_detector_settings(model_xml, parts, log=log, select_on=select_on, grid_modes=grid_modes)
     upd["selection"]["command"] = command
     upd["selection"]["time_s"] = round(time.perf_counter() - t0, 1)
     _update_json(model_xml, upd)
@@ -336,6 +358,7 @@ def select_detector_settings(
     size_exps: tuple[float, ...] = (0.0, 0.5, 1.0, 1.5, 2.0),
     size_bins: tuple[float, ...] = SIZE_BINS,
     log=print,
+    grid_step_px: int = -1,
 ) -> tuple[dict, dict]:
     """Detector settings (scale factor, ``min_neighbors``, size exponent) of best F1 over boat sizes.
 
@@ -354,6 +377,8 @@ def select_detector_settings(
 
     Returns ``(best settings, table)``: ``best`` has ``scale_factor``, ``min_neighbors``,
     ``neighbors_size_exp`` and the scores; ``table`` every candidate's per-bin counts.
+    ``grid_step_px``: the detector's grid of window positions (-1: the model's; see
+    :class:`~seawatch.detect.cascade.CascadeParams`).
     """
     from seawatch.detect.cascade import CascadeDetector
 
@@ -363,7 +388,8 @@ def select_detector_settings(
     table = {}
     best, best_score = None, -1.0
     for sf in scale_factors:
-        det = CascadeDetector(model_path, min_neighbors=1, neighbors_size_exp=0.0, scale_factor=sf)
+        det = CascadeDetector(model_path, min_neighbors=1, neighbors_size_exp=0.0, scale_factor=sf,
+                              grid_step_px=grid_step_px)
         runs = []  # (image, min size, prepared grey, raw grey, windows, counts, truth, ignore)
         t0 = time.perf_counter()
         for im in images:
