@@ -41,7 +41,7 @@ TARGET = {0.3: 0.75, 0.5: 0.55}
 # other shipped cascades measured beside the default in the same run (video2, held-out MarDCT,
 # speed), each with the detector settings stored in its JSON; a file byte-identical to the
 # default is skipped
-ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v2": "boat_cascade_v2.xml"}
+ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v6": "boat_cascade_v6.xml", "v2": "boat_cascade_v2.xml"}
 # the floor of a cascade scan at 704x576 (pyramid, integrals, variance checks; a cascade that
 # rejects every window at its first stump) for these windows and scale factors
 FLOOR_WINDOWS = ((60, 30), (40, 20), (30, 15))
@@ -281,6 +281,9 @@ def run(ctx) -> None:
                 **{f"seawatch_cascade+filters({k})": CascadeDetector(model, min_size_px=w / 8.0, **kw)
                    for k, kw in FAST_SETTINGS.items()},
                 **{f"seawatch_cascade_{t}+filters": CascadeDetector(a) for t, a in alts.items()},
+                # the scan region off (session 12's water_roi crop instead): what it saves
+                **{f"seawatch_cascade_{t}+filters(no_scan_region)": CascadeDetector(a, scan_region=False)
+                   for t, a in alts.items()},
                 # each model at the best settings of its validation table for the other scale
                 # factors (speed only, never scored on video2): what a faster scale factor costs
                 **{f"seawatch_cascade{t}+filters(validation_best_sf{sf:g})": CascadeDetector(mp, **kw)
@@ -356,7 +359,8 @@ def _best_per_scale_factor(model: Path) -> dict:
 def _settings(det) -> str:
     p = det.params
     return (f"window {det.window[0]}x{det.window[1]}, scale factor {p.scale_factor:g}, "
-            f"min_neighbors {p.min_neighbors}, size exponent {p.neighbors_size_exp:g}")
+            f"min_neighbors {p.min_neighbors}, size exponent {p.neighbors_size_exp:g}"
+            + (", 2 px grid at every scale" if p.grid_step_px == 2 else ""))
 
 
 def _floor(ctx, imgs, dataset, reps):
@@ -429,8 +433,10 @@ def _profile(ctx, model, imgs, dataset, reps, prefix="profile"):
     stages = {
         "grey+median": med(prepare_grey, imgs),
         "horizon_detection": med(lambda im: detect_horizon(to_grey(im)), imgs),
-        "cascade_detectMultiScale": med(lambda g: det.classifier.detectMultiScale2(
-            g, scaleFactor=p.scale_factor, minNeighbors=int(p.min_neighbors), minSize=det.window), small),
+        # the model's grid of window positions: OpenCV's (one call) or 2 px at every scale (a call per level)
+        "cascade_detectMultiScale": med((lambda g: det.scan_region_windows(g, None)) if p.grid_step_px == 2 else (
+            lambda g: det.classifier.detectMultiScale2(g, scaleFactor=p.scale_factor, minNeighbors=int(p.min_neighbors),
+                                                       minSize=det.window)), small),
         "pyramid+integrals+variance_only": med(lambda g: clf0.detectMultiScale2(
             g, scaleFactor=p.scale_factor, minNeighbors=1, minSize=det.window), small),
     }
@@ -448,7 +454,8 @@ def _profile(ctx, model, imgs, dataset, reps, prefix="profile"):
             if sw < casc.width_px or sh < casc.height_px:
                 break
             lvl = cv2.resize(g, (sw, sh), interpolation=cv2.INTER_LINEAR)
-            hits = scan_image(casc, lvl, step_px=1 if f > 2 else 2, min_stage=0, max_hits=5_000_000,
+            hits = scan_image(casc, lvl, step_px=1 if (f >= 2 and p.grid_step_px == 0) else 2, min_stage=0,
+                              max_hits=5_000_000,
                               skip_after_reject=True)
             reach += np.bincount(hits[:, 2], minlength=nst + 1)
             f *= p.scale_factor
