@@ -13,6 +13,7 @@ own frame: ``x`` towards the bow, ``y`` to port, ``z`` up, origin on the waterli
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from dataclasses import dataclass, field
@@ -89,6 +90,12 @@ class Trajectory:
         starts = self._starts()
         return (*starts, np.asarray(self.legs, dtype=np.float64).reshape(-1, 3))
 
+    @functools.cached_property
+    def _table_py(self) -> tuple[list[float], ...]:
+        """:attr:`_table` as lists of Python floats (for the scalar path: no NumPy per call)."""
+        ts, es, ns, cs, legs = self._table
+        return ts.tolist(), es.tolist(), ns.tolist(), cs.tolist(), legs[:, 1].tolist(), legs[:, 2].tolist()
+
     def _starts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Start time, e, n, course of every leg."""
         t, e, n, c = 0.0, self.e0_m, self.n0_m, self.course0_deg
@@ -106,19 +113,20 @@ class Trajectory:
         -------
         e_m, n_m, course_deg, speed_mps : arrays shaped like ``t_s``
         """
-        ts, es, ns, cs, legs = self._table
         if isinstance(t_s, (float, int)):  # scalar fast path (pure Python arithmetic)
-            k = max(0, min(len(ts) - 1, int(np.searchsorted(ts, t_s, side="right")) - 1))
-            dt = float(t_s) - float(ts[k])
-            v, wd = float(legs[k, 1]), float(legs[k, 2])
-            c0 = float(cs[k])
+            ts, es, ns, cs, vs, wds = self._table_py
+            k = max(0, min(len(ts) - 1, bisect.bisect_right(ts, t_s) - 1))
+            dt = float(t_s) - ts[k]
+            v, wd = vs[k], wds[k]
+            c0 = cs[k]
             if abs(wd) < 1e-9:
                 c = math.radians(c0)
-                return float(es[k]) + v * dt * math.sin(c), float(ns[k]) + v * dt * math.cos(c), c0 % 360.0, v
+                return es[k] + v * dt * math.sin(c), ns[k] + v * dt * math.cos(c), c0 % 360.0, v
             w = math.radians(wd)
             a0, a1 = math.radians(c0), math.radians(c0) + w * dt
-            return (float(es[k]) + v / w * (math.cos(a0) - math.cos(a1)),
-                    float(ns[k]) + v / w * (math.sin(a1) - math.sin(a0)), (c0 + wd * dt) % 360.0, v)
+            return (es[k] + v / w * (math.cos(a0) - math.cos(a1)),
+                    ns[k] + v / w * (math.sin(a1) - math.sin(a0)), (c0 + wd * dt) % 360.0, v)
+        ts, es, ns, cs, legs = self._table
         t = np.asarray(t_s, dtype=np.float64)
         if len(ts) == 1 and abs(legs[0, 2]) < 1e-9:  # one straight leg (most vessels): no lookups
             v = np.full(t.shape, legs[0, 1])
