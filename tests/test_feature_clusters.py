@@ -240,3 +240,76 @@ def test_speed_floor_follows_the_measured_noise():
     c2 = FeatureClusterer(ClusterParams(noise_factor=3.0, min_speed_px_s=2.5))
     c2.update(noisy)
     assert c2.min_speed_px_s == pytest.approx(12.0) and (c2.last_labels == -1).all()
+
+
+# ------------------------------------------- velocity gate and unmerge (not in the paper)
+def _gate_run(max_dv, unmerge=False, bridge_frames=1):
+    """A (features 0-2, 20 px/s) and B (3-5, 3 px/s) become clusters, then a bridge edge links
+    them for ``bridge_frames`` frames; returns the cluster identities per frame after."""
+    a, b = [0, 1, 2], [3, 4, 5]
+    g = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=0.0, label_memory_s=10.0, unmerge=unmerge)
+    vel = np.array([[20.0, 0.0]] * 3 + [[3.0, 0.0]] * 3)
+    slots, ids = np.arange(6), np.arange(100, 106)
+    t, out = 0.0, []
+
+    def go(edges):
+        e = np.array(edges, np.int64).reshape(-1, 2)
+        return g.step(slots, ids, e[:, 0], e[:, 1], t, velocity=vel, max_dv_px_s=max_dv, min_age_s=0.1)
+
+    for _ in range(5):
+        labels, cids = go(chain(a) + chain(b))
+        t += 0.04
+    assert (labels[a] == 1).all() and (labels[b] == 2).all()
+    for _ in range(bridge_frames):
+        out.append(go(chain(a) + chain(b) + [(2, 3)]))
+        t += 0.04
+    for _ in range(8):
+        out.append(go(chain(a) + chain(b)))
+        t += 0.04
+    return out
+
+
+def test_velocity_gate_refuses_a_merge_of_clusters_moving_differently():
+    # without the gate the bridge merges them (the oldest identity stays) ...
+    labels, cids = _gate_run(0.0)[0]
+    assert cids.tolist() == [1] and (labels == 1).all()
+    # ... with it (17 px/s apart > 5) they stay apart with their identities throughout
+    for labels, cids in _gate_run(5.0):
+        assert labels.tolist() == [1, 1, 1, 2, 2, 2] and cids.tolist() == [1, 2]
+    # a gate wider than their difference lets them merge as the paper does
+    labels, cids = _gate_run(20.0)[0]
+    assert cids.tolist() == [1]
+
+
+def test_velocity_gate_lets_a_feature_moving_alike_join_and_ignores_unknown_velocity():
+    g = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=0.0)
+    slots, ids = np.arange(4), np.arange(10, 14)
+    vel = np.array([[10.0, 0], [10.0, 0], [11.0, 1.0], [np.nan, np.nan]])
+    e = np.array([(0, 1)])
+    for k in range(4):
+        g.step(slots, ids, e[:, 0], e[:, 1], 0.04 * k, velocity=vel, max_dv_px_s=5.0)
+    # feature 2 moves like the cluster (1.4 px/s off): it joins; feature 3 has no velocity: not refused
+    e = np.array([(0, 1), (1, 2), (2, 3)])
+    labels, cids = g.step(slots, ids, e[:, 0], e[:, 1], 0.2, velocity=vel, max_dv_px_s=5.0)
+    assert labels.tolist() == [1, 1, 1, 1]
+    # the same feature moving 8 px/s faster is refused
+    vel[2] = (18.0, 0.0)
+    g2 = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=0.0)
+    e = np.array([(0, 1)])
+    for k in range(4):
+        g2.step(slots, ids, e[:, 0], e[:, 1], 0.04 * k, velocity=vel, max_dv_px_s=5.0)
+    e = np.array([(0, 1), (1, 2)])
+    labels, _ = g2.step(slots, ids, e[:, 0], e[:, 1], 0.2, velocity=vel, max_dv_px_s=5.0)
+    assert labels.tolist() == [1, 1, -1, -1]
+
+
+def test_unmerge_gives_each_part_back_its_identity():
+    # paper: one part keeps the merged identity 1 (a tie: the lower component, A) and B gets a
+    # new one (3); unmerge: after the split B is 2 again
+    paper = _gate_run(0.0, unmerge=False)
+    um = _gate_run(0.0, unmerge=True)
+    assert paper[0][1].tolist() == [1] and um[0][1].tolist() == [1]  # the merge keeps the oldest
+    labels, cids = paper[-1]
+    assert labels.tolist() == [1, 1, 1, 3, 3, 3]
+    labels, cids = um[-1]
+    assert labels.tolist() == [1, 1, 1, 2, 2, 2] and cids.tolist() == [1, 2]

@@ -26,6 +26,7 @@ tracking in visible and thermal imagery", AVSS 2015.  The stable features of
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 import cv2
@@ -318,11 +319,19 @@ class AffinityClusters:
     label_memory_s : float
         How long a feature remembers the identity of its cluster after leaving every cluster,
         so that a cluster that dissolves for a moment comes back with its identity.
+    unmerge : bool
+        Not in the paper (False: the paper's rules).  Each feature also remembers the identity
+        it had before its cluster merged into an older one; identities are then handed out by
+        those (:func:`assign_identities` on them), so a merge still keeps the oldest identity
+        but when the merged cluster splits again each part gets back the identity its features
+        had before the merge (the paper: the part holding most features keeps the merged
+        identity, the others get new ones).  Two boats whose clusters merge while they pass
+        each other keep their identities when they part.
     """
 
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
-        label_memory_s: float = 2.0,
+        label_memory_s: float = 2.0, unmerge: bool = False,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -332,6 +341,7 @@ class AffinityClusters:
         self.w_cap = max(self.w_cap, self.w_link + self.alpha)
         self.min_features = max(2, int(min_features))
         self.label_memory_s = float(label_memory_s)
+        self.unmerge = bool(unmerge)
         self.reset()
 
     def reset(self) -> None:
@@ -341,6 +351,7 @@ class AffinityClusters:
         self._fid = np.zeros(0, np.int64)
         self._label = np.zeros(0, np.int64)
         self._label_t = np.zeros(0)
+        self._origin = np.zeros(0, np.int64)  # identity before the last merge into an older one
         self._has = np.zeros(0, bool)  # slots with a positive weight to some other slot
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
@@ -357,6 +368,7 @@ class AffinityClusters:
         self._fid = np.r_[self._fid, np.full(new - self._cap, -1, np.int64)]
         self._label = np.r_[self._label, np.full(new - self._cap, -1, np.int64)]
         self._label_t = np.r_[self._label_t, np.full(new - self._cap, -np.inf)]
+        self._origin = np.r_[self._origin, np.full(new - self._cap, -1, np.int64)]
         self._has = np.r_[self._has, np.zeros(new - self._cap, bool)]
         self._cap = new
 
@@ -368,6 +380,10 @@ class AffinityClusters:
         """Whether two slots are linked."""
         return bool(self._linked[slot_a, slot_b])
 
+    def _velocity_gate(self, lab, vel, li, lj, t_s, max_dv, min_age_s):
+        est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
+        return _gate_links(lab, vel, li, lj, est, max_dv)
+
     def step(
         self,
         slots: np.ndarray,
@@ -376,6 +392,9 @@ class AffinityClusters:
         edge_j: np.ndarray,
         t_s: float,
         active: np.ndarray | None = None,
+        velocity: np.ndarray | None = None,
+        max_dv_px_s: float = 0.0,
+        min_age_s: float = 0.0,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Update the affinity graph with one frame's edges and return the clusters.
 
@@ -388,6 +407,16 @@ class AffinityClusters:
         t_s : time of the frame (s).
         active : (N,) bool, the features that may be in a cluster this frame (the stable
             ones); all when None.  Inactive features keep and decay their weights.
+        velocity : (N, 2) each feature's recent velocity relative to the scene (px/s, NaN when
+            unknown), for the velocity gate below.
+        max_dv_px_s : float
+            Velocity gate (not in the paper; 0: off): a link between a feature of a cluster at
+            least ``min_age_s`` old and a feature outside it does not join them this frame when
+            that feature's velocity differs from the cluster's mean velocity by more than
+            ``max_dv_px_s`` (vector difference; a feature of unknown velocity is not refused).
+            The link's weight is kept; only the merge is refused.  The paper's magnitude term
+            hardly separates slow objects (``N(m)`` is small below a few px per frame), so two
+            neighbouring boats moving the same way at different slow speeds would merge.
 
         Returns
         -------
@@ -415,6 +444,7 @@ class AffinityClusters:
         forget = changed | gone
         self._label[forget] = -1
         self._label_t[forget] = -np.inf
+        self._origin[forget] = -1
         self._fid[gone] = -1
         self._fid[slots] = ids
         if n == 0:
@@ -436,6 +466,12 @@ class AffinityClusters:
         act_s = act[sub]
         li, lj = _affinity_update(self._w, self._linked, self._has, ss, pos[ei], pos[ej], act_s,
                                   self.alpha, self.w_cap, self.w_link)
+        lab = self._label[slots].copy()
+        lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
+        if max_dv_px_s > 0 and velocity is not None and len(li):
+            keep = self._velocity_gate(lab[sub], np.asarray(velocity, np.float64)[sub], li, lj, t_s,
+                                       max_dv_px_s, min_age_s)
+            li, lj = li[keep], lj[keep]
         comp = np.full(n, -1, np.int64)
         if len(li):
             m = len(sub)
@@ -447,14 +483,23 @@ class AffinityClusters:
             _, inv = np.unique(cc[big], return_inverse=True)
             comp[sub[big]] = inv
 
-        lab = self._label[slots].copy()
-        lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
-        cids, self.next_id = assign_identities(lab, comp, self.next_id)
+        vote = lab
+        if self.unmerge:
+            org = self._origin[slots]
+            vote = np.where((lab >= 0) & (org >= 0), org, lab)
+        cids, self.next_id = assign_identities(vote, comp, self.next_id)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
         labels[comp >= 0] = cids[comp[comp >= 0]]
         member = comp >= 0
+        if self.unmerge:
+            # a feature absorbed into an older cluster keeps its origin; otherwise its origin
+            # is its identity now (new feature, split part, unmerged part)
+            sm = slots[member]
+            old = lab[member]
+            keep = (old >= 0) & (labels[member] <= old) & (self._origin[sm] >= 0)
+            self._origin[sm] = np.where(keep, self._origin[sm], labels[member])
         self._label[slots[member]] = labels[member]
         self._label_t[slots[member]] = t_s
         live = set(int(c) for c in cids)
@@ -464,6 +509,46 @@ class AffinityClusters:
             keep = live | set(int(x) for x in np.unique(valid))
             self.birth_s = {k: v for k, v in self.birth_s.items() if k in keep}
         return labels, np.sort(cids)
+
+
+def _gate_links(lab, vel, li, lj, established, max_dv):
+    """Which links ``(li, lj)`` may join their ends (see :meth:`AffinityClusters.step`,
+    ``max_dv_px_s``): False where one end belongs to an established cluster and the other, not
+    in it, has a velocity more than ``max_dv`` from the cluster's mean velocity."""
+    keep = np.ones(len(li), bool)
+    la, lb = lab[li], lab[lj]
+    cand = (la != lb) & ((la >= 0) | (lb >= 0))
+    if not cand.any():
+        return keep
+    labels = np.unique(lab[lab >= 0])
+    labels = labels[np.isin(labels, established)]
+    if not len(labels):
+        return keep
+    k = np.searchsorted(labels, lab)
+    k = np.where((lab >= 0) & (k < len(labels)), k, -1)
+    k[k >= 0] = np.where(labels[k[k >= 0]] == lab[k >= 0], k[k >= 0], -1)
+    m = k >= 0
+    nl = len(labels)
+    fin = m & np.isfinite(vel).all(axis=1)
+    vs = np.zeros((nl, 2))
+    np.add.at(vs, k[fin], vel[fin])
+    vn = np.bincount(k[fin], minlength=nl)
+    vmean = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+
+    def refuse(c, o):
+        """End ``c``'s cluster refuses the feature ``o``."""
+        kc = k[c]
+        ok = kc >= 0
+        out = np.zeros(len(c), bool)
+        if not ok.any():
+            return out
+        kc, oo = kc[ok], o[ok]
+        with np.errstate(invalid="ignore"):
+            out[ok] = np.hypot(*(vel[oo] - vmean[kc]).T) > max_dv  # NaN (unknown): not refused
+        return out
+
+    keep[cand] = ~(refuse(li[cand], lj[cand]) | refuse(lj[cand], li[cand]))
+    return keep
 
 
 @nb.njit(cache=True, nogil=True)
@@ -732,6 +817,8 @@ class ClusterParams:
     relink_predict_s: float = 0.0
     relink_overlap: float = 0.3
     relink_camera: bool = True
+    merge_dv_px_s: float = 5.0
+    unmerge: bool = False
 
 
 class FeatureClusterer:
@@ -760,7 +847,7 @@ class FeatureClusterer:
         self.source = source
         self.camera_id = camera_id
         p = self.params
-        self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s)
+        self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -846,7 +933,8 @@ class FeatureClusterer:
                 if k in present:
                     continue
                 d = gap_px(boxes[i], lb)
-                if d <= p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom:
+                gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                if d <= gate:
                     pairs.append((d, i, k))
         done = set()
         for d, i, k in sorted(pairs):
@@ -858,12 +946,23 @@ class FeatureClusterer:
             done.add(i)
             del self._lost[k]
             self._lost_dir.pop(k, None)
-        # one reported identity per frame: a duplicate falls back to its own identity
-        _, first = np.unique(rep, return_index=True)
-        dup = np.setdiff1d(np.arange(len(rep)), first)
-        for i in dup:
-            self._alias.pop(int(cids[i]), None)
-            rep[i] = int(cids[i])
+        # one reported identity per frame: a cluster reported under its own identity keeps it; a
+        # duplicate falls back to its own identity, or to a new one when that is taken too (a
+        # cluster identity that came back, e.g. after an unmerge, while another cluster carries it)
+        if len(np.unique(rep)) < len(rep):
+            used = set()
+            own_first = sorted(range(len(rep)), key=lambda i: (int(rep[i]) != int(cids[i]), i))
+            for i in own_first:
+                r = int(rep[i])
+                if r in used:
+                    self._alias.pop(int(cids[i]), None)
+                    r = int(cids[i])
+                    if r in used:
+                        r = self.graph.next_id
+                        self.graph.next_id += 1
+                        self._alias[int(cids[i])] = r
+                    rep[i] = r
+                used.add(r)
         self._known.update((int(c), t) for c in cids)
         if len(self._known) > 4 * max(len(cids), 16):  # bounded memory in a long live run
             # a cluster identity comes back only through the graph's label memory
@@ -975,7 +1074,14 @@ class FeatureClusterer:
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 self.min_speed_px_s, still, p.still_radius_px)
         # indices into the snapshot
-        labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable)
+        vel = None
+        if p.merge_dv_px_s > 0:
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                vel = np.nanmean(snap.history, axis=1)  # recent velocity relative to the scene
+        labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable,
+                                       velocity=vel, max_dv_px_s=p.merge_dv_px_s,
+                                       min_age_s=p.confirm_s)
         self.last_labels = labels
         self._camera = camera
         self._zoom = max(float(zoom), 1e-3)
