@@ -91,13 +91,14 @@ def _record_all(ctx, dataset, method, s, **extra):
 
 def _paper_only(fps):
     """The tracker with the additions beyond the paper turned off (no box growing, contrast
-    check, merge of overlapping clusters, identity relinking, guided matching, or use of the
+    check, merge of overlapping clusters, velocity gate on merges, identity relinking, guided matching, or use of the
     horizon), for the before/after comparison."""
     from seawatch.detect.features import StableFeatureExtractor
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
 
     return StableFeatureTracker(StableFeatureExtractor(nominal_fps=fps, guided_px=0.0),
-                                ClusterParams(grow_box=0.0, min_contrast=0.0, merge_overlap=0.0, relink_s=0.0),
+                                ClusterParams(grow_box=0.0, min_contrast=0.0, merge_overlap=0.0, relink_s=0.0,
+                                              merge_dv_px_s=0.0),
                                 horizon="off")
 
 

@@ -313,3 +313,22 @@ def test_unmerge_gives_each_part_back_its_identity():
     assert labels.tolist() == [1, 1, 1, 3, 3, 3]
     labels, cids = um[-1]
     assert labels.tolist() == [1, 1, 1, 2, 2, 2] and cids.tolist() == [1, 2]
+
+
+def test_side_by_side_reports_merge_only_when_large_near_and_moving_alike():
+    from seawatch.track.feature_clusters import _merge_overlapping
+
+    cids = np.array([4, 9])
+    boxes = np.array([[100.0, 50, 90, 30], [240, 52, 50, 30]])  # 50 px apart, same rows
+    count, vel = np.array([10, 6]), np.zeros((2, 2))
+    same = np.array([[1.0, 0], [2.0, 0]])
+    # off (gap_h 0): two reports
+    assert _merge_overlapping(cids, boxes, count, vel, 0.5, same, 0.0, 5.0, 24)[0].tolist() == [4, 9]
+    # near (50 <= 2 x 30), alike (1 px/s apart), tall enough: one report, the oldest identity, the union box
+    c, b, n, _ = _merge_overlapping(cids, boxes, count, vel, 0.5, same, 2.0, 5.0, 24)
+    assert c.tolist() == [4] and b[0].tolist() == [100, 50, 190, 32] and n.tolist() == [16]
+    # moving differently, too far apart, or too small: apart
+    diff = np.array([[1.0, 0], [9.0, 0]])
+    assert len(_merge_overlapping(cids, boxes, count, vel, 0.5, diff, 2.0, 5.0, 24)[0]) == 2
+    assert len(_merge_overlapping(cids, boxes, count, vel, 0.5, same, 1.5, 5.0, 24)[0]) == 2
+    assert len(_merge_overlapping(cids, boxes, count, vel, 0.5, same, 2.0, 5.0, 31)[0]) == 2

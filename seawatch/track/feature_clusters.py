@@ -754,12 +754,18 @@ def grow_boxes(
     return (out, contrast) if return_contrast else out
 
 
-def _merge_overlapping(cids, boxes, count, vel, min_overlap):
+def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
-    union, the velocity the feature-weighted mean."""
+    union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
+    cluster's mean velocity relative to the scene, px/s), also two boxes side by side (their rows
+    overlapping by half the lower box) less than ``gap_h`` times the taller box's height apart,
+    whose relative velocities differ by at most ``max_dv``, when both are at least ``min_h`` tall
+    (parts of one long hull seen large, e.g. the bow and the superstructure of a ship at full
+    zoom; small boats side by side are left apart)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
+    rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     alive = np.ones(len(cids), bool)
     for i in range(len(cids)):
         if not alive[i]:
@@ -771,12 +777,19 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap):
             iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
             small = min(a[2] * a[3], b[2] * b[3])
-            if iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small:
+            join = iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small
+            if (not join and rv is not None and min(a[3], b[3]) >= min_h and ih >= 0.5 * min(a[3], b[3]) > 0
+                    and -iw <= gap_h * max(a[3], b[3])):
+                dv = rv[i] - rv[j]
+                join = bool(np.all(np.isfinite(dv)) and np.hypot(dv[0], dv[1]) <= max_dv)
+            if join:
                 x0, y0 = min(a[0], b[0]), min(a[1], b[1])
                 x1, y1 = max(a[0] + a[2], b[0] + b[2]), max(a[1] + a[3], b[1] + b[3])
                 boxes[i] = (x0, y0, x1 - x0, y1 - y0)
                 tot = max(count[i] + count[j], 1)
                 vel[i] = (vel[i] * count[i] + vel[j] * count[j]) / tot
+                if rv is not None:
+                    rv[i] = (rv[i] * count[i] + rv[j] * count[j]) / tot
                 count[i] += count[j]
                 alive[j] = False
     return cids[alive], boxes[alive], count[alive], vel[alive]
@@ -819,6 +832,8 @@ class ClusterParams:
     relink_camera: bool = True
     merge_dv_px_s: float = 5.0
     unmerge: bool = False
+    merge_gap_h: float = 0.0
+    merge_gap_min_px: float = 24.0
 
 
 class FeatureClusterer:
@@ -1136,12 +1151,27 @@ class FeatureClusterer:
         np.add.at(vsum, k[ok], iv[ok])
         vn = np.bincount(k[ok], minlength=n)
         vel = np.where(vn[:, None] > 0, vsum / np.maximum(vn, 1)[:, None], 0.0)
+        keep_c = None
         if self.last_contrast is not None and p.min_contrast > 0:
             # a cluster that does not stand out from its surroundings is not reported
             ok = ~(self.last_contrast < p.min_contrast)
             cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            keep_c = ok
         if p.merge_overlap > 0 and len(cids) > 1:
-            cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap)
+            rv = None
+            if p.merge_gap_h > 0:
+                with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    fv = np.nanmean(snap.history[m], axis=1)  # each member's velocity relative to the scene
+                okv = np.isfinite(fv).all(axis=1)
+                rs = np.zeros((n, 2))
+                np.add.at(rs, k[okv], fv[okv])
+                rn = np.bincount(k[okv], minlength=n)
+                rv = np.where(rn[:, None] > 0, rs / np.maximum(rn, 1)[:, None], np.nan)
+                if keep_c is not None:
+                    rv = rv[keep_c]
+            cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
+                                                         p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px)
         if p.relink_s > 0:
             ids = self._relink(snap, cids, boxes, vel)
             for r in ids:
