@@ -1,4 +1,6 @@
-"""Numba kernels of the renderer (per-pixel loops that NumPy cannot express in one pass)."""
+"""Numba kernels of the renderer: per-pixel loops that NumPy cannot express in one pass, and the
+per-frame geometry of small arrays (view grid, wakes, one vessel) where NumPy's per-call overhead
+would dominate."""
 
 from __future__ import annotations
 
@@ -637,7 +639,7 @@ def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, fac
                 cols[n, k] = min(max(v, 1.0), 255.0)
             n += 1
     canvas = np.zeros((ch, cw, C), np.uint8)
-    fill_polys(canvas, polys, nv, cols)
+    fill_polys(canvas, polys[:n], nv[:n], cols[:n])
     full = 0
     for y in range(ch):
         for x in range(cw):

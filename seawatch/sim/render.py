@@ -12,8 +12,9 @@ One frame is built in this order:
 3. **wakes and reflections** on the water (they never cover a vessel's pixels);
 4. **vessels**, far to near (occlusion by depth): each a set of convex lofted parts projected with
    :meth:`CameraModel.enu_to_pixel` (Earth curvature included), back faces culled, faces shaded by
-   the sun, drawn with ``cv2.fillConvexPoly`` into a per-vessel canvas whose non-zero pixels are the
-   vessel's exact mask; the frame and a label image take the same pixels;
+   the sun, filled (``fill_polys``, inside the Numba kernel ``draw_vessel``) into a per-vessel canvas
+   whose non-zero pixels are the vessel's exact mask; the frame and a label image take the same
+   pixels (a uint8 label: at most 255 vessels);
 5. IR **halo** around warm vessels, optical blur, **sensor noise** (precomputed Gaussian pools at
    a random offset per frame) and optional **JPEG** compression.
 
@@ -293,8 +294,6 @@ class Renderer:
         self._water_top_y = ((self.pano.band_el_max - wt) * self.pano.ppd_hi - 0.5).astype(np.float32)
         self.waves = wave_field or WaveField(seed=self.seed + 7)
         self.world_to_camera = None if world_to_camera is None else np.asarray(world_to_camera, float)
-        # camera ENU -> world ENU directions (the wave texture is anchored to the world)
-        self._cam_to_world = np.eye(2) if world_to_camera is None else np.linalg.inv(self.world_to_camera[:, :2])
         self._pano_geo = np.array([p.az_min, p.el_max, p.band_el_max, p.ppd_lo, p.ppd_hi], np.float64)
         span = max(pr[1] - pr[0], tr[1] - tr[0])
         self.use_panorama = bool(0.0 < span <= _PANO_MAX_SPAN_DEG) if panorama is None else bool(panorama)
@@ -305,7 +304,6 @@ class Renderer:
         self._views: OrderedDict[tuple, _View] = OrderedDict()
         self._tiles4: dict[int, np.ndarray] = {}
         self._bufs: dict[str, np.ndarray] = {}
-        self._face_cols: dict[int, np.ndarray] = {}  # vessel -> base colour of its faces (F, C)
         self._draw_res = np.zeros(9, np.int64)
         self.sea_cache_mb = float(sea_cache_mb)
         self._cache_bytes = 0
@@ -380,8 +378,10 @@ class Renderer:
         r_a = math.sqrt(f_px * self.height_m * lam / 3.0)
         sea = np.array([r_a, self.waves.texel_m, o.wave_contrast, o.glint, sky.sun_az_deg,
                         1.0 if sky.sun_el_deg > 0 else 0.0, 1.0 if o.waves else 0.0])
+        # camera ENU -> world ENU directions (the wave texture is anchored to the world)
+        inv = _EYE2 if self.world_to_camera is None else np.linalg.inv(self.world_to_camera[:, :2])
         out = np.empty((9,) + az.shape)
-        view_grid(az, el, self.ref_az, self._pano_geo, self.height_m, r_eff_m, sea, self._cam_to_world, out)
+        view_grid(az, el, self.ref_az, self._pano_geo, self.height_m, r_eff_m, sea, inv, out)
         return out
 
     def _build_view(self, cam: CameraModel) -> _View:
@@ -649,13 +649,14 @@ class Renderer:
         vessel ``k``'s vertices at ``bounds[k]:bounds[k + 1]`` and its pose ``poses[k] = (e, n,
         course, speed, fwd, port, roll, pitch, heave)``."""
         vs = self.world.vessels
+        key = tuple(id(v.model) for v in vs)
         cat = self.__dict__.get("_verts_cat")
-        if cat is None:  # every vessel's model vertices in one array, and whose each one is
-            sizes = [len(v.model.verts) for v in vs]
-            verts = np.concatenate([v.model.verts for v in vs]) if vs else np.zeros((0, 3))
-            cat = self._verts_cat = (verts[:, 0].copy(), verts[:, 1].copy(), verts[:, 2].copy(),
-                                     np.repeat(np.arange(len(vs)), sizes), np.cumsum([0] + sizes))
-        x, y, z, owner, bounds = cat
+        if cat is None or cat[0] != key:  # every vessel's model vertices in one array, and the vessel
+            sizes = [len(v.model.verts) for v in vs]  # that each vertex belongs to (remade when the
+            verts = np.concatenate([v.model.verts for v in vs]) if vs else np.zeros((0, 3))  # list changes)
+            cat = self._verts_cat = (key, [v.model for v in vs], verts[:, 0].copy(), verts[:, 1].copy(),
+                                     verts[:, 2].copy(), np.repeat(np.arange(len(vs)), sizes), np.cumsum([0] + sizes))
+        x, y, z, owner, bounds = cat[2:]
         poses = []
         par = np.empty((11, len(vs)))  # e, n, fwd (2), port (2), cos and sin of roll and pitch, heave
         for k, v in enumerate(vs):
@@ -812,6 +813,9 @@ class Renderer:
             view = self._view(cam)
             img = self._sea_image(view, t_s)
             water_row = view.water_row
+        if draw_vessels and len(self.world.vessels) > 255:
+            raise ValueError(f"the renderer labels at most 255 vessels (uint8 label image); the world has "
+                             f"{len(self.world.vessels)}")
         label = np.zeros((self.H, self.W), np.uint8)
         rows = []
         if draw_vessels and len(self.world.vessels):
@@ -908,10 +912,7 @@ class Renderer:
         (:func:`draw_vessel`): ``(full_px, (x0, y0, x1, y1))`` of its visible pixels, or None."""
         vessel = self.world.vessels[k]
         m = vessel.model
-        cols = self._face_cols.get(k)
-        if cols is None:
-            cols = self._face_cols[k] = np.ascontiguousarray(m.all_ir[:, None] if self.options.ir else m.all_bgr,
-                                                             np.float64)
+        cols = np.ascontiguousarray(m.all_ir[:, None] if self.options.ir else m.all_bgr, np.float64)  # (no copy)
         res = self._draw_res
         draw_vessel(img, label, k + 1, np.ascontiguousarray(uu), np.ascontiguousarray(vv), m.all_normals,
                     m.all_centres, cols, not self.options.ir, m.face_idx, m.face_nvert, m.face_part,
@@ -1026,5 +1027,6 @@ def _remap_into(dst: np.ndarray, src: np.ndarray, maps: np.ndarray, scratch: np.
         d2[...] = res
 
 
+_EYE2 = np.eye(2)
 _WAKE_TAU = np.array([0.0, 1.0, 2.5, 4.5, 7.0, 10.0, 14.0])
 _WAKE_DECAY = np.exp(-_WAKE_TAU / 6.0)
