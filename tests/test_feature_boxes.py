@@ -235,7 +235,8 @@ def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
     both reported); the older one dies: with relink_overlap the younger takes the older identity
     (the paper's merge rule), without it keeps its own."""
     def run(overlap):
-        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=overlap))
+        # merge_overlap 0.5: the two reports (overlapping by 0.48) stay apart (the default 0.25 joins them)
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=overlap, merge_overlap=0.5))
         xy = [[100, 60], [110, 62], [106, 61], [116, 63]]
         vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
         _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))
@@ -272,3 +273,22 @@ def test_window_background_kernels_match_a_numpy_reference():
         sigma = 1.4826 * np.median(np.abs(edges - bg[:, None, :]).max(axis=2))
         for b, s in (F._window_background(win.astype(np.float32), bw), F._window_background_u8(win, bw)):
             assert np.allclose(b, bg) and s == pytest.approx(sigma, abs=1e-3)
+
+
+def test_wide_retry_reaches_a_hull_longer_than_the_window_but_not_a_coastline():
+    # a ship 200 px long seen at full zoom; its cluster covers 50 px in the middle
+    rng = np.random.default_rng(3)
+    img = 120.0 + rng.normal(0.0, 2.0, (200, 480))
+    img[90:120, 140:340] = 40.0
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    core = np.array([[215.0, 98.0, 50.0, 14.0]])
+    box = core + [-3, -3, 6, 6]
+    # the window (grown by 40 px) cuts the hull at both sides: like a coastline, it is left out
+    assert grow_boxes(img, box, core, max_grow_px=40.0)[0].tolist() == box[0].tolist()
+    # the wide retry holds the whole hull
+    out = grow_boxes(img, box, core, max_grow_px=40.0, wide_grow_px=120.0)
+    assert out[0].tolist() == pytest.approx([140, 90, 200, 30])
+    # a dark coastline across the whole image is still left out
+    coast = img.copy()
+    coast[90:120, :] = 40
+    assert grow_boxes(coast, box, core, max_grow_px=40.0, wide_grow_px=120.0)[0].tolist() == box[0].tolist()

@@ -658,7 +658,7 @@ def grow_boxes(
     image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
-    return_contrast: bool = False,
+    return_contrast: bool = False, wide_grow_px: float = 0.0,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -682,6 +682,13 @@ def grow_boxes(
     image : (H, W) or (H, W, C) image, in the pixels of the boxes.
     boxes : (N, 2) ... (N, 4) boxes ``x, y, w, h``.
     cores : (N, 4) the features' extent ``x, y, w, h`` of each cluster (within its box).
+    wide_grow_px : float
+        When the object's components touching the core all reach the window's left or right
+        edge (a hull longer than the window, or a coastline), or the core does not stand out
+        from the window's border strips (which may lie on a long hull), look again in a window
+        grown by this many pixels to the left and right (0: never); a coastline still reaches
+        its edges and is left out, a hull is now held inside, and its contrast is the wider
+        window's.  Not in the paper (stop 13).
 
     Returns
     -------
@@ -702,56 +709,79 @@ def grow_boxes(
         x, y, w, h = out[n]
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
-        x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))
-        x1, y1 = int(min(ww, np.ceil(x + w + gx))), int(min(hh, np.ceil(y + h + gy)))
-        bw = max(b, int(round(0.1 * (x1 - x0))))
-        if x1 - x0 < 2 * bw + 3 or y1 - y0 < 3:
-            continue
-        win = img[y0:y1, x0:x1]
-        # (rows, C) background and its noise
-        bg, sigma = (_window_background_u8 if win.dtype == np.uint8 else _window_background)(win, bw)
-        cx, cy, cw, ch = cores[n]
-        c0x, c0y = int(max(0, np.floor(cx)) - x0), int(max(0, np.floor(cy)) - y0)
-        c1x, c1y = int(np.ceil(cx + cw)) - x0 + 1, int(np.ceil(cy + ch)) - y0 + 1
-        c0x, c0y = max(c0x, 0), max(c0y, 0)
-        core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
-        r0, r1 = min(core[0].start, win.shape[0]), min(core[0].stop, win.shape[0])
-        q0, q1 = min(core[1].start, win.shape[1]), min(core[1].stop, win.shape[1])
-        dev_core = _window_deviation(win, bg, r0, r1, q0, q1)
-        peak = float(np.percentile(dev_core, 90)) if dev_core.size else 0.0
-        contrast[n] = peak / max(sigma, 1.0)
-        if large or peak <= max(k_sigma * sigma, min_contrast):
-            continue  # the core does not stand out: nothing to grow to
-        dev = _window_deviation(win, bg, 0, win.shape[0], 0, win.shape[1])
-        thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
-        fg = (dev > thr).astype(np.uint8)
-        if fg.mean() > max_fill:
-            continue
-        fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
-        nlab, lab, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
-        if nlab <= 1:
-            continue
-        sub = lab[core]
-        hit = np.unique(sub[sub > 0])
-        # a component reaching the window's left or right edge is background structure (coast,
-        # horizon, sea texture), not the object (a mast or a reflection may reach the top or
-        # the bottom)
-        # the image's own border is not the window's edge: an object may be cut by it
-        edge = np.unique(np.r_[lab[:, 0] if x0 > 0 else [], lab[:, -1] if x1 < ww else []]).astype(np.int64)
-        hit = np.setdiff1d(hit, edge)
-        if len(hit) == 0:
-            continue
-        st = stats[hit]  # left, top, width, height, area of each component
-        nx0, nx1 = st[:, 0].min() + x0, (st[:, 0] + st[:, 2]).max() + x0
-        ny0, ny1 = st[:, 1].min() + y0, (st[:, 1] + st[:, 3]).max() + y0
-        # the object must cover most of the core (not a speck of noise at its corner)
-        cw1, ch1 = max(cw, 1.0), max(ch, 1.0)
-        iw = min(nx1, cx + cw1) - max(nx0, cx)
-        ih = min(ny1, cy + ch1) - max(ny0, cy)
-        if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
-            continue
-        out[n] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
+        box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
+                                            max_fill, peak_frac)
+        if box is None and wider and wide_grow_px > gx:
+            # a hull longer than the window reaches its left and right edges as a coastline does
+            # (or fills its border strips): look again in a window wide enough to hold it (a
+            # coastline still reaches its edges)
+            box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
+                                   max_fill, peak_frac)
+            if box is not None:
+                contrast[n] = c2
+        if box is not None:
+            out[n] = box
     return (out, contrast) if return_contrast else out
+
+
+def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac):
+    """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
+    ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
+    components touching the core were all left out for reaching the window's left or right
+    edge, or the core does not stand out from the window's border strips (which may lie on the
+    object itself)."""
+    hh, ww = img.shape[:2]
+    x, y, w, h = box
+    x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))
+    x1, y1 = int(min(ww, np.ceil(x + w + gx))), int(min(hh, np.ceil(y + h + gy)))
+    bw = max(b, int(round(0.1 * (x1 - x0))))
+    if x1 - x0 < 2 * bw + 3 or y1 - y0 < 3:
+        return None, np.nan, False
+    win = img[y0:y1, x0:x1]
+    # (rows, C) background and its noise
+    bg, sigma = (_window_background_u8 if win.dtype == np.uint8 else _window_background)(win, bw)
+    cx, cy, cw, ch = core_box
+    c0x, c0y = int(max(0, np.floor(cx)) - x0), int(max(0, np.floor(cy)) - y0)
+    c1x, c1y = int(np.ceil(cx + cw)) - x0 + 1, int(np.ceil(cy + ch)) - y0 + 1
+    c0x, c0y = max(c0x, 0), max(c0y, 0)
+    core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
+    r0, r1 = min(core[0].start, win.shape[0]), min(core[0].stop, win.shape[0])
+    q0, q1 = min(core[1].start, win.shape[1]), min(core[1].stop, win.shape[1])
+    dev_core = _window_deviation(win, bg, r0, r1, q0, q1)
+    peak = float(np.percentile(dev_core, 90)) if dev_core.size else 0.0
+    contrast = peak / max(sigma, 1.0)
+    if large or peak <= max(k_sigma * sigma, min_contrast):
+        return None, contrast, not large  # the core does not stand out: nothing to grow to (here)
+    dev = _window_deviation(win, bg, 0, win.shape[0], 0, win.shape[1])
+    thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
+    fg = (dev > thr).astype(np.uint8)
+    if fg.mean() > max_fill:
+        return None, contrast, False
+    fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    nlab, lab, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
+    if nlab <= 1:
+        return None, contrast, False
+    sub = lab[core]
+    hit = np.unique(sub[sub > 0])
+    # a component reaching the window's left or right edge is background structure (coast,
+    # horizon, sea texture), not the object (a mast or a reflection may reach the top or
+    # the bottom)
+    # the image's own border is not the window's edge: an object may be cut by it
+    edge = np.unique(np.r_[lab[:, 0] if x0 > 0 else [], lab[:, -1] if x1 < ww else []]).astype(np.int64)
+    at_edge = len(hit) > 0
+    hit = np.setdiff1d(hit, edge)
+    if len(hit) == 0:
+        return None, contrast, at_edge
+    st = stats[hit]  # left, top, width, height, area of each component
+    nx0, nx1 = st[:, 0].min() + x0, (st[:, 0] + st[:, 2]).max() + x0
+    ny0, ny1 = st[:, 1].min() + y0, (st[:, 1] + st[:, 3]).max() + y0
+    # the object must cover most of the core (not a speck of noise at its corner)
+    cw1, ch1 = max(cw, 1.0), max(ch, 1.0)
+    iw = min(nx1, cx + cw1) - max(nx0, cx)
+    ih = min(ny1, cy + ch1) - max(ny0, cy)
+    if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
+        return None, contrast, False
+    return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0):
@@ -822,7 +852,7 @@ class ClusterParams:
     relink_s: float = 30.0
     relink_px: float = 20.0
     min_contrast: float = 4.0
-    merge_overlap: float = 0.5
+    merge_overlap: float = 0.25
     still_radius_px: float = 15.0
     relink_predict: bool = True
     water_margin_px: float = 4.0
@@ -834,6 +864,7 @@ class ClusterParams:
     unmerge: bool = False
     merge_gap_h: float = 0.0
     merge_gap_min_px: float = 24.0
+    grow_wide_px: float = 120.0
 
 
 class FeatureClusterer:
@@ -1143,7 +1174,7 @@ class FeatureClusterer:
                 img = to_grey_u8(img)
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
-                peak_frac=p.grow_peak_frac, return_contrast=True)
+                peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px)
         count = np.bincount(k, minlength=n)
         iv = snap.image_velocity[m]
         ok = np.isfinite(iv).all(axis=1)
