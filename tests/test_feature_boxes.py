@@ -292,3 +292,30 @@ def test_wide_retry_reaches_a_hull_longer_than_the_window_but_not_a_coastline():
     coast = img.copy()
     coast[90:120, :] = 40
     assert grow_boxes(coast, box, core, max_grow_px=40.0, wide_grow_px=120.0)[0].tolist() == box[0].tolist()
+
+
+def test_identity_taken_by_a_cluster_that_dies_young_goes_back_as_it_was_lost():
+    """A boat's identity is lost at x ~ 100; a short-lived cluster 15 px away takes it and dies
+    after 0.2 s (< relink_min_s): the identity is lost again where the boat was, not where that
+    cluster died, so the boat found again later takes it back."""
+    vel = [[20, 0]] * 2
+
+    def run(min_s):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, relink_px=20.0, relink_px_per_s=0.0,
+                                           relink_min_s=min_s))
+        _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+        boat = int(tr.ids[0])
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1, 1, ids=[]))  # lost
+        for k in (2, 3):  # a short-lived cluster 15 px to the right takes the identity ...
+            _, tr = c.update(snap([[125, 60], [135, 62]], vel, 0.1 * k, k, ids=[3, 4]))
+            assert tr.ids.tolist() == [boat]
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.4, 4, ids=[]))  # ... and dies
+        # the boat is found again 20 px left of where it was lost: boxes 6 px apart, and 31 px
+        # from where the other cluster died (the gate is 20 px)
+        _, tr = c.update(snap([[80, 60], [90, 62]], vel, 0.5, 5, ids=[5, 6]))
+        return boat, int(tr.ids[0])
+
+    boat, now = run(0.4)
+    assert now == boat
+    boat, now = run(0.0)  # the identity was lost again at the short-lived cluster: beyond the gate
+    assert now != boat

@@ -865,6 +865,7 @@ class ClusterParams:
     merge_gap_h: float = 0.0
     merge_gap_min_px: float = 24.0
     grow_wide_px: float = 120.0
+    relink_min_s: float = 0.4
 
 
 class FeatureClusterer:
@@ -907,6 +908,7 @@ class FeatureClusterer:
         self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
         self._lost_dir: dict[int, tuple] = {}  # lost identity -> (azimuths, elevations) of its box corners
+        self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -990,6 +992,8 @@ class FeatureClusterer:
             rep[i] = k
             present.add(k)
             done.add(i)
+            if p.relink_min_s > 0:  # kept to give the identity back if this cluster dies young
+                self._relinked[k] = (t, self._lost[k], self._lost_dir.get(k))
             del self._lost[k]
             self._lost_dir.pop(k, None)
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
@@ -1031,6 +1035,13 @@ class FeatureClusterer:
         renamed = set()  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
+                back = self._relinked.pop(k, None)
+                if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
+                    # the cluster that took k died within relink_min_s: k is lost as it was before
+                    self._lost[k] = back[1]
+                    if back[2] is not None:
+                        self._lost_dir[k] = back[2]
+                    continue
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 prev_cam = self._prev_camera
