@@ -832,7 +832,13 @@ class ClusterParams:
     The fields after ``confirm_s`` act on the output only and are not in the paper (see
     ``docs/stable_features.md``): box growing, contrast check, merge of overlapping reports, and
     the identity relink (``relink_s``, ``relink_px``, ``relink_px_per_s``, ``relink_predict``,
-    ``relink_predict_s``, ``relink_overlap``, ``relink_camera``; see :meth:`FeatureClusterer._relink`)."""
+    ``relink_predict_s``, ``relink_overlap``, ``relink_camera``, ``relink_min_s``; see
+    :meth:`FeatureClusterer._relink`), ``grow_wide_px`` (see :func:`grow_boxes`) and
+    ``merge_gap_h`` / ``merge_gap_min_px`` (side-by-side reports, off).  Two act on the
+    clustering and are not in the paper either: ``merge_dv_px_s`` (the velocity gate of
+    :meth:`AffinityClusters.step`; 0 gives the paper's clustering) and ``unmerge`` (off; see
+    :class:`AffinityClusters`).  ``relink_min_s``: when the cluster that took a lost identity
+    dies within this time, the identity is lost again as it was before (0: off)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
