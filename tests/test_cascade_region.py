@@ -93,6 +93,13 @@ def test_region_rows_follow_the_line_kind_and_window_height():
     assert rc[0] < 100.0  # the highest point of the line, 100 detection rows, less a window's reach
     assert np.all(np.diff(rc) <= 0) and rc[5] < rc[0]  # taller windows start higher
     assert np.all(rs <= rc) and rs[0] < rc[0]  # a water-sky line keeps boxes whose bottom is below it
+    # with no margin the region still holds every window the horizon filter keeps: under a
+    # water-sky line a window whose bottom is on the line (its top one window height above),
+    # under a water-coast line one whose centre is on it
+    det.params.scan_region_margin_win = 0.0
+    wins_h = np.array([lv[3][1] for lv in det._levels(352, 288)], np.float64)
+    assert np.all(det.region_rows(sky, 0.5, 352, 288) <= np.maximum(0.0, 100.0 - wins_h))
+    assert np.all(det.region_rows(coast, 0.5, 352, 288) <= np.maximum(0.0, 100.0 - 0.5 * wins_h))
 
 
 def _pool_images():

@@ -302,16 +302,20 @@ class CascadeDetector:
         """First window top row (detection pixels) per pyramid level that can still give an
         accepted detection under ``horizon`` (source pixels, resized by ``z``).
 
-        Water-coast line: a box is kept when its centre is on or below the line, so a window of
-        height ``h`` needs its top at or below ``line - (0.5 + dy) h``; water-sky line: its bottom,
-        so ``line - (0.5 + dy + ratio_h / 2) h``; ``line`` is the highest point of the line, and
-        ``scan_region_margin_win`` window heights more are scanned for the windows that group
-        with them.
+        The horizon filter acts on the grouped windows: under a water-coast line a window is kept
+        when its centre is on or below the line, so a window of height ``h`` needs its top at or
+        below ``line - 0.5 h``; under a water-sky line when its bottom is, ``line - h``. The
+        box-based reach (``0.5 + dy``, and ``+ ratio_h / 2`` under a sky line) is used where it
+        is larger.  ``line`` is the highest point of the line, and ``scan_region_margin_win``
+        window heights more are scanned for the windows that group with them (the grouping can
+        chain windows across the cut, so the region is exact only as far as that margin covers
+        the chain: no difference was measured, see docs/cascade.md).
         """
         p = self.params
         top = float(min(horizon.y_left, horizon.y_right)) * z
-        reach = 0.5 + self.dy_frac + (0.0 if horizon.kind == "coast" else self.ratio_h / 2.0)
-        reach = max(reach, 0.5) + p.scan_region_margin_win
+        coast = horizon.kind == "coast"
+        reach_box = 0.5 + self.dy_frac + (0.0 if coast else self.ratio_h / 2.0)
+        reach = max(reach_box, 0.5 if coast else 1.0) + p.scan_region_margin_win
         wins_h = np.array([lv[3][1] for lv in self._levels(dw, dh)], np.float64)
         return np.maximum(0.0, top - reach * wins_h)
 
