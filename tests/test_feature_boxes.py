@@ -319,3 +319,25 @@ def test_identity_taken_by_a_cluster_that_dies_young_goes_back_as_it_was_lost():
     assert now == boat
     boat, now = run(0.0)  # the identity was lost again at the short-lived cluster: beyond the gate
     assert now != boat
+
+
+def test_cluster_that_dies_young_gives_the_identity_back_for_good():
+    """The short-lived cluster that took a lost identity dies within relink_min_s: the identity
+    goes back to the lost list, and should that cluster's own identity come back (the graph's
+    label memory) far from where the boat was lost, it is reported under its own identity, not
+    the boat's (it would otherwise retake it without the relink gate)."""
+    from types import SimpleNamespace
+
+    fc = FeatureClusterer(ClusterParams(relink_s=10.0, relink_px=20.0, relink_px_per_s=0.0, relink_min_s=0.4))
+
+    def go(t, cids, *x):
+        box = np.array([[xi, 60.0, 12.0, 6.0] for xi in x]).reshape(-1, 4)
+        return fc._relink(SimpleNamespace(t_s=t, homography=np.eye(3)), np.array(cids, np.int64), box).tolist()
+
+    assert go(0.0, [1], 100.0) == [1]
+    assert go(0.1, []) == []  # the boat is lost
+    assert go(0.2, [2], 125.0) == [1]  # a cluster 13 px away takes its identity ...
+    assert go(0.3, []) == []  # ... and dies young: identity 1 is lost again
+    assert 1 in fc._lost and 2 not in fc._alias
+    assert go(0.4, [2], 300.0) == [2]  # cluster 2 back far away: its own identity
+    assert go(0.5, [2, 3], 300.0, 95.0) == [2, 1]  # the boat found again near its last box takes it

@@ -914,7 +914,7 @@ class FeatureClusterer:
         self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
         self._lost_dir: dict[int, tuple] = {}  # lost identity -> (azimuths, elevations) of its box corners
-        self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions)
+        self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions, the cluster that took it)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -999,7 +999,7 @@ class FeatureClusterer:
             present.add(k)
             done.add(i)
             if p.relink_min_s > 0:  # kept to give the identity back if this cluster dies young
-                self._relinked[k] = (t, self._lost[k], self._lost_dir.get(k))
+                self._relinked[k] = (t, self._lost[k], self._lost_dir.get(k), int(cids[i]))
             del self._lost[k]
             self._lost_dir.pop(k, None)
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
@@ -1043,7 +1043,11 @@ class FeatureClusterer:
             if k not in now and k not in renamed:
                 back = self._relinked.pop(k, None)
                 if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
-                    # the cluster that took k died within relink_min_s: k is lost as it was before
+                    # the cluster that took k died within relink_min_s: k is lost as it was before,
+                    # and that cluster no longer carries k (should it come back through the graph's
+                    # label memory, it is reported under its own identity, not k)
+                    if self._alias.get(back[3]) == k:
+                        del self._alias[back[3]]
                     self._lost[k] = back[1]
                     if back[2] is not None:
                         self._lost_dir[k] = back[2]
