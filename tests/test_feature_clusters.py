@@ -288,8 +288,9 @@ def test_velocity_gate_lets_a_feature_moving_alike_join_and_ignores_unknown_velo
     e = np.array([(0, 1)])
     for k in range(4):
         g.step(slots, ids, e[:, 0], e[:, 1], 0.04 * k, velocity=vel, max_dv_px_s=5.0)
-    # feature 2 moves like the cluster (1.4 px/s off): it joins; feature 3 has no velocity: not refused
-    e = np.array([(0, 1), (1, 2), (2, 3)])
+    # feature 2 moves like the cluster (1.4 px/s off): it joins; feature 3 has no velocity and is
+    # linked straight to a member of the established cluster (so the gate judges it): not refused
+    e = np.array([(0, 1), (1, 2), (0, 3)])
     labels, cids = g.step(slots, ids, e[:, 0], e[:, 1], 0.2, velocity=vel, max_dv_px_s=5.0)
     assert labels.tolist() == [1, 1, 1, 1]
     # the same feature moving 8 px/s faster is refused
