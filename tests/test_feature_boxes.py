@@ -288,9 +288,13 @@ def test_wide_retry_reaches_a_hull_longer_than_the_window_but_not_a_coastline():
     # the wide retry holds the whole hull
     out = grow_boxes(img, box, core, max_grow_px=40.0, wide_grow_px=120.0)
     assert out[0].tolist() == pytest.approx([140, 90, 200, 30])
-    # a dark coastline across the whole image is still left out
+    # a dark coastline 10 px wide across the whole image, through the hull, is still left out;
+    # it is tilted (0.2 px per column), so the wide window's border strips lie mostly on water
+    # and the core stands out: what leaves it out is that it reaches the window's left and
+    # right edges (without that rule the box would grow to the whole 296 px wide window)
+    yy, xx = np.mgrid[:200, :480]
     coast = img.copy()
-    coast[90:120, :] = 40
+    coast[(yy >= 100 + 0.2 * (xx - 240)) & (yy < 110 + 0.2 * (xx - 240))] = 40
     assert grow_boxes(coast, box, core, max_grow_px=40.0, wide_grow_px=120.0)[0].tolist() == box[0].tolist()
 
 
