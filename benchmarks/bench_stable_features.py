@@ -90,9 +90,13 @@ def _record_all(ctx, dataset, method, s, **extra):
 
 
 def _paper_only(fps):
-    """The tracker with the additions beyond the paper turned off (no box growing, contrast
+    """The tracker with the clustering and output additions turned off (no box growing, contrast
     check, merge of overlapping clusters, velocity gate on merges, identity relinking, guided matching, or use of the
-    horizon), for the before/after comparison."""
+    horizon), for the before/after comparison.  Not the paper exactly: the front end's deviations
+    stay (similarity camera fit instead of the mean velocity, Lucas-Kanade sub-pixel positions,
+    0.4 s velocity baseline, 1.5 px/s speed floor, weight cap 15, confidence cap 10, 2 s label
+    memory, 0.4 s confirmation, keypoint priority near tracked features; docs/stable_features.md,
+    "Deviations")."""
     from seawatch.detect.features import StableFeatureExtractor
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
 
@@ -137,7 +141,8 @@ def _sim(ctx, name):
 
     scn = make_scenario(name, seed=0, duration_s=12.0 if ctx.quick else None)
     # the default stage, given the camera model as the pipeline gives it (the horizon at each
-    # frame's PTZ state marks the water); the same without the camera; and the paper alone
+    # frame's PTZ state marks the water); the same without the camera; and the clustering and
+    # output additions off ("paper only": the front end's deviations stay, see _paper_only)
     trackers = {"stable_features": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps),
                                                         camera=scn.camera),
                 "stable_features (no camera)": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps)),
