@@ -326,13 +326,15 @@ def test_identity_taken_by_a_cluster_that_dies_young_goes_back_as_it_was_lost():
 
 
 def test_cluster_that_dies_young_gives_the_identity_back_for_good():
-    """The short-lived cluster that took a lost identity dies within relink_min_s: the identity
+    """(``relink_undo_drop_alias``, off by default.) The short-lived cluster that took a lost
+    identity dies within relink_min_s: the identity
     goes back to the lost list, and should that cluster's own identity come back (the graph's
     label memory) far from where the boat was lost, it is reported under its own identity, not
     the boat's (it would otherwise retake it without the relink gate)."""
     from types import SimpleNamespace
 
-    fc = FeatureClusterer(ClusterParams(relink_s=10.0, relink_px=20.0, relink_px_per_s=0.0, relink_min_s=0.4))
+    fc = FeatureClusterer(ClusterParams(relink_s=10.0, relink_px=20.0, relink_px_per_s=0.0, relink_min_s=0.4,
+                                        relink_undo_drop_alias=True))
 
     def go(t, cids, *x):
         box = np.array([[xi, 60.0, 12.0, 6.0] for xi in x]).reshape(-1, 4)

@@ -838,7 +838,9 @@ class ClusterParams:
     clustering and are not in the paper either: ``merge_dv_px_s`` (the velocity gate of
     :meth:`AffinityClusters.step`; 0 gives the paper's clustering) and ``unmerge`` (off; see
     :class:`AffinityClusters`).  ``relink_min_s``: when the cluster that took a lost identity
-    dies within this time, the identity is lost again as it was before (0: off)."""
+    dies within this time, the identity is lost again as it was before (0: off);
+    ``relink_undo_drop_alias`` (off) also takes the identity from that cluster's label memory
+    (on, it raised sim `pan` seed-0 ID switches from 5 to 14 in the stop-13 bench)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -872,6 +874,7 @@ class ClusterParams:
     merge_gap_min_px: float = 24.0
     grow_wide_px: float = 120.0
     relink_min_s: float = 0.4
+    relink_undo_drop_alias: bool = False
 
 
 class FeatureClusterer:
@@ -1046,7 +1049,7 @@ class FeatureClusterer:
                     # the cluster that took k died within relink_min_s: k is lost as it was before,
                     # and that cluster no longer carries k (should it come back through the graph's
                     # label memory, it is reported under its own identity, not k)
-                    if self._alias.get(back[3]) == k:
+                    if p.relink_undo_drop_alias and self._alias.get(back[3]) == k:
                         del self._alias[back[3]]
                     self._lost[k] = back[1]
                     if back[2] is not None:
