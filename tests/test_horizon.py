@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -113,3 +114,38 @@ def test_tracker_detects_at_most_every_s():
     other, _, _ = boat_scene(1, 320, 240, horizon_px=120.0)
     assert abs(tr.update(other, 0.1).y_left - yl) <= 3  # not re-detected yet
     assert abs(tr.update(other, 0.25).y_left - 120.0) <= 3  # re-detected (a jump restarts)
+
+
+def _soft(seed, tilt_deg):
+    """A low-contrast 320x240 water-sky frame (sky-sea step about 25 grey levels) and its line."""
+    img, _, (yl, yr) = boat_scene(seed, 320, 240, n_boats=2, horizon_px=70.0, tilt_deg=tilt_deg, clutter=5)
+    return np.clip(128 + (img.astype(np.float32) - 128) * 0.25, 0, 255).astype(np.uint8), yl, yr
+
+
+@pytest.mark.parametrize("seed,tilt", [(0, -0.8), (2, 0.8), (4, 0.0)])
+def test_upscaled_frame_gets_its_line_at_the_working_width(seed, tilt):
+    # a 320x240 video shown at 704x576 (linear upscaling) spreads the horizon's step over ~2 px,
+    # so at full size its gradient falls under the Canny thresholds; at the working width it is
+    # sharp again and the line is found, within 3 px and 1 degree of the truth at 704x576
+    src, yl, yr = _soft(seed, tilt)
+    assert detect_horizon(src) is not None  # the native frame has its line
+    up = cv2.resize(src, (704, 576), interpolation=cv2.INTER_LINEAR)
+    assert detect_horizon(up, work_width_px=0) is None  # worked on at full size: lost
+    assert detect_horizon(up, work_width_px=640) is None  # the old working width: lost too
+    hz = detect_horizon(up)
+    assert hz is not None and hz.width == 704 and hz.kind == "sky"
+    sy = 576 / 240
+    tl, tr = (yl + 0.5) * sy - 0.5, (yr + 0.5) * sy - 0.5
+    assert abs(hz.y_left - tl) <= 3 and abs(hz.y_right - tr) <= 3
+    assert abs(hz.angle_deg - _angle_deg(tl, tr, 704)) <= 1.0
+
+
+def test_working_widths_are_tried_in_turn():
+    img, _, (yl, yr) = boat_scene(3, 640, 480, horizon_px=150.0, tilt_deg=0.5)
+    one = detect_horizon(img, work_width_px=352)
+    both = detect_horizon(img, work_width_px=(352, 288))
+    assert one is not None and both == one  # the first width that gives a line wins
+    assert detect_horizon(img, work_width_px=(64, 352)) == one  # 64x48: too small for the pairs, next
+    # a frame narrower than every working width is used as it is, once
+    small, _, _ = boat_scene(3, 200, 160, horizon_px=50.0)
+    assert detect_horizon(small, work_width_px=(352, 288)) == detect_horizon(small, work_width_px=0)

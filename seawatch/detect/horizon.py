@@ -11,8 +11,14 @@ ends, the pairs are sampled along the actual, sloped line, and each Hough line i
 (least squares) to the edge pixels within 3 px of it, which removes the 1-degree quantisation of
 the Hough grid.
 
-The image is worked on at a width of at most ``work_width_px`` (640 by default; the authors ran
-on small detection images), so the pixel constants keep their meaning on HD frames.
+The image is worked on at a fixed working width (session 14): 352 px, MarDCT's own width, the video
+size the authors' pixel constants (Canny 50/70, 100 votes, 10 px ends, 10-30 px pairs) were made
+for; when no line passes there, once more at 288 px.  Only wider images are resized (area
+averaging), and the line is scaled back.  An upscaled or soft frame (a 320x240 video shown at
+704x576) spreads the horizon's grey step over several pixels, so its Sobel gradient falls under
+the Canny thresholds at full size; at the working width the step is sharp again, and the coarser
+second width recovers most of the lines that are still too soft at the first (on the training and
+validation frames, see docs/cascade.md).  It is also 2-3x cheaper than working at 640 px.
 
 The line is then classified: a *water-coast* line has texture above it (coast, quays,
 buildings), a *water-sky* line has none.  :func:`horizon_filter` drops detections whose centre
@@ -115,7 +121,7 @@ def detect_horizon(
     min_support: float = 0.9,
     coast_edge_density: float = 0.04,
     max_lines: int = 100,
-    work_width_px: int = 640,
+    work_width_px: int | tuple[int, ...] = (352, 288),
 ) -> Horizon | None:
     """Find the horizon line in one frame.
 
@@ -144,21 +150,58 @@ def detect_horizon(
         Edge density above the line beyond which it is a water-coast line.
     max_lines : int
         At most this many Hough lines (strongest first) are considered.
-    work_width_px : int
-        Wider images are resized to this width first (pixel parameters refer to it).
+    work_width_px : int or tuple of int
+        Working widths, tried in turn until one gives a line: an image wider than a working
+        width is resized to it (area averaging; the pixel parameters refer to the working
+        image), a narrower one is used as it is (once).  0 or () : the image's own size only.
 
     Returns
     -------
     Horizon in the input image's pixels, or None when no line passes.
     """
-    g = to_grey(image, "detect_horizon")
-    if ir or g.dtype != np.uint8:
-        g = normalize_ir(g)
-    h0, w0 = g.shape
-    f = 1.0
-    if work_width_px and w0 > work_width_px:
-        f = work_width_px / w0
-        g = cv2.resize(g, (work_width_px, max(1, int(round(h0 * f)))), interpolation=cv2.INTER_LINEAR)
+    g0 = to_grey(image, "detect_horizon")
+    if ir or g0.dtype != np.uint8:
+        g0 = normalize_ir(g0)
+    h0, w0 = g0.shape
+    widths = (work_width_px,) if isinstance(work_width_px, (int, np.integer)) else tuple(work_width_px)
+    sizes: list[int] = []
+    for ww in widths or (0,):
+        ww = int(ww)
+        s = ww if 0 < ww < w0 else w0
+        if s not in sizes:
+            sizes.append(s)
+    kw = dict(canny_low=canny_low, canny_high=canny_high, hough_votes=hough_votes, theta_range_rad=theta_range_rad,
+              max_end_diff_px=max_end_diff_px, pair_offsets_px=pair_offsets_px, n_columns=n_columns,
+              min_grey_diff=min_grey_diff, min_support=min_support, coast_edge_density=coast_edge_density,
+              max_lines=max_lines)
+    for s in sizes:
+        if s == w0:
+            g, fx, fy = g0, 1.0, 1.0
+        else:
+            hs = max(1, int(round(h0 * s / w0)))
+            g = cv2.resize(g0, (s, hs), interpolation=cv2.INTER_AREA)
+            fx, fy = s / w0, hs / h0
+        found = _detect_at(g, **kw)
+        if found is not None:
+            a, b, kind, support = found
+            # back to the input's pixels (pixel centres scale as (v + 0.5) / f - 0.5); the ends
+            # are at columns 0 and w - 1 of the working image, i.e. at (0.5 / fx - 0.5) and
+            # (w - 0.5) / fx - 0.5 of the input: extend the line to columns 0 and w0 - 1
+            xa, xb = 0.5 / fx - 0.5, (g.shape[1] - 0.5) / fx - 0.5
+            ya, yb = (a + 0.5) / fy - 0.5, (b + 0.5) / fy - 0.5
+            slope = (yb - ya) / (xb - xa) if xb > xa else 0.0
+            y0 = ya - slope * xa
+            y1 = ya + slope * (w0 - 1 - xa)
+            return Horizon(float(y0), float(y1), w0, kind, support)
+    return None
+
+
+def _detect_at(g: np.ndarray, canny_low: float, canny_high: float, hough_votes: int,
+               theta_range_rad: tuple[float, float], max_end_diff_px: float, pair_offsets_px: tuple[int, ...],
+               n_columns: int, min_grey_diff: float, min_support: float, coast_edge_density: float,
+               max_lines: int) -> tuple[float, float, str, float] | None:
+    """The authors' line search on one (working-size) grey image: rows of the line at its first
+    and last columns, its kind and its pair support, or None."""
     h, w = g.shape
     omax = max(pair_offsets_px)
     if h < 2 * omax + 12 or w < 8:
@@ -215,10 +258,7 @@ def detect_horizon(
             band = max(8, int(round(0.08 * h)))
             tex = _texture_above(g, edges, a, b, band)
             kind = "coast" if tex > coast_edge_density else "sky"
-            # back to the input's pixels (pixel centres scale as (v + 0.5) / f - 0.5)
-            y0 = (a + 0.5) / f - 0.5
-            y1 = (b + 0.5) / f - 0.5
-            return Horizon(float(y0), float(y1), w0, kind, support)
+            return a, b, kind, support
     return None
 
 
