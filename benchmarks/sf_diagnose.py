@@ -38,6 +38,10 @@ def _parse(argv):
                          "keywords} and \"horizon\": camera|detect|auto|off (default: {} = the defaults)")
     ap.add_argument("--duration-s", type=float, default=None, help="scenario length in seconds (default: its own)")
     ap.add_argument("--segment-s", type=float, default=5.0, help="length of the METE segments in seconds (default 5)")
+    ap.add_argument("--breakdown", action="store_true",
+                    help="split METE into its causes: per boat, the IoU lost where it is matched and the frames it is "
+                         "missed; reports on no boat beyond the boats' count; and the matched boxes' bias (size, offset) "
+                         "against the ground-truth boxes")
     ap.add_argument("--switches", action="store_true",
                     help="list every identity switch: the boat, the identity it had and the new one, whether the "
                          "old one is still reported (and on what), and how old the new one is")
@@ -128,9 +132,77 @@ def main(argv=None) -> int:
         print(f"{a / scn.fps:5.1f}-{sl.stop / scn.fps:5.1f} s: METE {e['per_frame'][sl].mean():.3f} "
               f"(accuracy {e['accuracy_per_frame'][sl].mean():.3f} + cardinality {e['cardinality_per_frame'][sl].mean():.3f})"
               f"  boats {ng[sl].mean():.1f}  reports {npr[sl].mean():.1f}  zoom {z:.2f}")
+    if args.breakdown:
+        _print_breakdown(gt, pred, frames, kinds, scn.fps, args.segment_s)
     if args.switches:
         _print_switches(gt, pred, frames, kinds, scn.fps)
     return 0
+
+
+def _print_breakdown(gt, pred, frames, kinds, fps, segment_s):
+    """METE of each frame is ``(sum over matched pairs of (1 - IoU) + max(n, m) - matched) / max(n, m)``
+    (``n`` boats, ``m`` reports, pairs matched by largest total IoU): the first part is each matched
+    boat's IoU loss, the second the missed boats (when ``n >= m``) or the reports on no boat beyond
+    the boats' count (when ``m > n``).  Prints each part's share of mean METE per boat and per
+    segment, and the matched boxes' bias against the ground truth."""
+    from scipy.optimize import linear_sum_assignment
+
+    from seawatch.eval import box_iou
+
+    nf = len(frames)
+    iou_loss, miss, fp = {}, {}, 0.0
+    seg = max(1, int(round(segment_s * fps)))
+    seg_parts = np.zeros((int(np.ceil(nf / seg)), 3))
+    bias = []  # (boat, log w ratio, log h ratio, dx / w_gt, dy / h_gt, iou)
+    for q, k in enumerate(frames):
+        gi, gb = gt[k]
+        pi, pb = pred[k]
+        n, m = len(gi), len(pi)
+        if max(n, m) == 0:
+            continue
+        den = float(max(n, m))
+        matched = np.zeros(n, bool)
+        if n and m:
+            iou = box_iou(gb, pb)
+            rr, cc = linear_sum_assignment(-iou)
+            for a, b in zip(rr, cc):
+                if iou[a, b] <= 0:
+                    continue
+                matched[a] = True
+                v = int(gi[a])
+                iou_loss[v] = iou_loss.get(v, 0.0) + (1.0 - iou[a, b]) / den
+                seg_parts[q // seg, 0] += (1.0 - iou[a, b]) / den
+                g, r = gb[a], pb[b]
+                bias.append((v, np.log(r[2] / max(g[2], 1e-9)), np.log(r[3] / max(g[3], 1e-9)),
+                             (r[0] + 0.5 * r[2] - g[0] - 0.5 * g[2]) / max(g[2], 1e-9),
+                             (r[1] + 0.5 * r[3] - g[1] - 0.5 * g[3]) / max(g[3], 1e-9), iou[a, b]))
+        if n >= m:
+            for a in np.flatnonzero(~matched):
+                v = int(gi[a])
+                miss[v] = miss.get(v, 0.0) + 1.0 / den
+            seg_parts[q // seg, 1] += (n - matched.sum()) / den
+        else:
+            fp += (m - matched.sum()) / den
+            seg_parts[q // seg, 2] += (m - matched.sum()) / den
+    tot_iou, tot_miss = sum(iou_loss.values()) / nf, sum(miss.values()) / nf
+    print(f"METE breakdown: IoU loss of matched boats {tot_iou:.3f} + missed boats {tot_miss:.3f} "
+          f"+ reports beyond the boats' count {fp / nf:.3f} = {tot_iou + tot_miss + fp / nf:.3f}")
+    b = np.array(bias).reshape(-1, 6)
+    print("boat  type        IoU-loss  missed  | matched: median w ratio, h ratio, dx/w, dy/h, IoU")
+    for v in sorted(set(iou_loss) | set(miss)):
+        r = b[b[:, 0] == v]
+        med = np.median(r[:, 1:], axis=0) if len(r) else np.full(5, np.nan)
+        print(f"{v:4d}  {kinds[v]:10s}  {iou_loss.get(v, 0.0) / nf:8.3f}  {miss.get(v, 0.0) / nf:6.3f}  | "
+              f"{np.exp(med[0]):5.2f} {np.exp(med[1]):5.2f} {med[2]:+5.2f} {med[3]:+5.2f} {med[4]:4.2f}")
+    if len(b):
+        med = np.median(b[:, 1:], axis=0)
+        print(f"all matched pairs ({len(b)}): median w ratio {np.exp(med[0]):.2f}, h ratio {np.exp(med[1]):.2f}, "
+              f"dx/w {med[2]:+.2f}, dy/h {med[3]:+.2f}, IoU {med[4]:.2f}")
+    for s_, (a1, a2, a3) in enumerate(seg_parts):
+        lo = s_ * seg
+        hi = min(lo + seg, nf)
+        print(f"{lo / fps:5.1f}-{hi / fps:5.1f} s: IoU loss {a1 / (hi - lo):.3f}  missed {a2 / (hi - lo):.3f}  "
+              f"beyond count {a3 / (hi - lo):.3f}")
 
 
 def _print_switches(gt, pred, frames, kinds, fps):

@@ -347,3 +347,39 @@ def test_cluster_that_dies_young_gives_the_identity_back_for_good():
     assert 1 in fc._lost and 2 not in fc._alias
     assert go(0.4, [2], 300.0) == [2]  # cluster 2 back far away: its own identity
     assert go(0.5, [2, 3], 300.0, 95.0) == [2, 1]  # the boat found again near its last box takes it
+
+
+def test_box_is_drawn_around_the_members_that_move_with_the_cluster():
+    # three features on a hull moving 20 px/s and one 40 px below moving 14 px/s: the paper's
+    # dissimilarity links them (the magnitude term is ~0.03), so they are one cluster
+    xy = [[100, 60], [110, 62], [120, 61], [100, 100]]
+    vel = [[20, 0], [20, 0], [20, 0], [14, 0]]
+    trimmed = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5))
+    _, tr = trimmed.update(snap(xy, vel, 0.0, 0))
+    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([98, 58, 24, 6])
+    whole = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=0.0))
+    _, tr = whole.update(snap(xy, vel, 0.0, 0))
+    assert tr.boxes[0].tolist() == pytest.approx([98, 58, 24, 44])
+    # a cluster of two keeps both members whatever their velocities
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5)).update(
+        snap([[100, 60], [100, 100]], [[20, 0], [14, 0]], 0.0, 0))
+    assert tr.boxes[0].tolist() == pytest.approx([98, 58, 4, 44])
+
+
+def test_a_cluster_above_the_horizon_is_not_reported():
+    from seawatch.detect.horizon import Horizon
+
+    hz = Horizon(80.0, 84.0, 240, kind="sky")  # the sea horizon, 80 px at the left, 84 at the right
+    # a cloud (box bottom 32 px above the horizon), a boat on the water, a ship whose bottom is
+    # 3 px above the horizon (within the 5 px margin)
+    xy = [[50, 40], [60, 42], [150, 100], [160, 102], [200, 75], [210, 78]]
+    vel = [[20, 0], [20, 0], [0, 20], [0, 20], [-20, 0], [-20, 0]]
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=20.0, sky_margin_px=5.0))
+    _, tr = c.update(snap(xy, vel, 0.0, 0), horizon=hz)
+    assert sorted(np.round(tr.boxes[:, 0]).tolist()) == [148, 198]
+    off = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=20.0, sky_margin_px=0.0))
+    _, tr = off.update(snap(xy, vel, 0.0, 0), horizon=hz)
+    assert len(tr) == 3
+    # without a horizon nothing is dropped
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=20.0)).update(snap(xy, vel, 0.0, 0))
+    assert len(tr) == 3

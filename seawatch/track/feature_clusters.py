@@ -784,6 +784,24 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
 
 
+def _box_members(k, vel, n, max_dv):
+    """Members ``(k: cluster index, vel: velocity relative to the scene, px/s, NaN unknown)`` that
+    count in their cluster's box: those within ``max_dv`` of the cluster's median velocity (and
+    those of unknown velocity); a cluster left with fewer than two keeps all its members."""
+    keep = np.ones(len(k), bool)
+    fin = np.isfinite(vel).all(axis=1)
+    for c in range(n):
+        mc = np.flatnonzero(k == c)
+        f = mc[fin[mc]]
+        if len(f) < 3:
+            continue
+        med = np.median(vel[f], axis=0)
+        far = f[np.hypot(*(vel[f] - med).T) > max_dv]
+        if len(mc) - len(far) >= 2:
+            keep[far] = False
+    return keep
+
+
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
@@ -840,7 +858,12 @@ class ClusterParams:
     :class:`AffinityClusters`).  ``relink_min_s``: when the cluster that took a lost identity
     dies within this time, the identity is lost again as it was before (0: off);
     ``relink_undo_drop_alias`` (off) also takes the identity from that cluster's label memory
-    (on, it raised sim `pan` seed-0 ID switches from 5 to 14 in the stop-13 bench)."""
+    (on, it raised sim `pan` seed-0 ID switches from 5 to 14 in the stop-13 bench).
+    Stop 14: ``sky_margin_px`` (5; 0 off): with a horizon, a report whose box bottom lies more
+    than this (times the zoom) above it is not reported (a cloud); ``box_dv_px_s`` (2.5; 0 off):
+    a cluster's box is drawn around the members whose velocity relative to the scene is within
+    this of the cluster's median (clusters of three or more; a feature of the coast or another
+    boat linked in stays in the cluster but not in its box)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -875,6 +898,8 @@ class ClusterParams:
     grow_wide_px: float = 120.0
     relink_min_s: float = 0.4
     relink_undo_drop_alias: bool = False
+    sky_margin_px: float = 5.0
+    box_dv_px_s: float = 2.5
 
 
 class FeatureClusterer:
@@ -921,6 +946,7 @@ class FeatureClusterer:
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
+        self._horizon = None
 
     def reset(self) -> None:
         self.graph.reset()
@@ -1155,6 +1181,7 @@ class FeatureClusterer:
         self.last_labels = labels
         self._camera = camera
         self._zoom = max(float(zoom), 1e-3)
+        self._horizon = horizon
         return self._outputs(snap, labels, cids, image)
 
     def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray, image=None):
@@ -1170,14 +1197,23 @@ class FeatureClusterer:
         k = np.searchsorted(cids, labels[m])
         xy = snap.xy[m]
         r = p.box_pad * 0.5 * snap.size_px[m]
+        if p.box_dv_px_s > 0:
+            # the box is drawn around the members that move with the cluster
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                fv = np.nanmean(snap.history[m], axis=1)
+            inb = _box_members(k, fv, n, p.box_dv_px_s)
+            kb, xyb, rb = k[inb], xy[inb], r[inb]
+        else:
+            kb, xyb, rb = k, xy, r
         x0 = np.full(n, np.inf)
         y0 = np.full(n, np.inf)
         x1 = np.full(n, -np.inf)
         y1 = np.full(n, -np.inf)
-        np.minimum.at(x0, k, xy[:, 0] - r)
-        np.minimum.at(y0, k, xy[:, 1] - r)
-        np.maximum.at(x1, k, xy[:, 0] + r)
-        np.maximum.at(y1, k, xy[:, 1] + r)
+        np.minimum.at(x0, kb, xyb[:, 0] - rb)
+        np.minimum.at(y0, kb, xyb[:, 1] - rb)
+        np.maximum.at(x1, kb, xyb[:, 0] + rb)
+        np.maximum.at(y1, kb, xyb[:, 1] + rb)
         if snap.shape is not None:
             h, w = snap.shape
             x0, x1 = np.clip(x0, 0, w), np.clip(x1, 0, w)
@@ -1189,10 +1225,10 @@ class FeatureClusterer:
             cy0 = np.full(n, np.inf)
             cx1 = np.full(n, -np.inf)
             cy1 = np.full(n, -np.inf)
-            np.minimum.at(cx0, k, xy[:, 0])
-            np.minimum.at(cy0, k, xy[:, 1])
-            np.maximum.at(cx1, k, xy[:, 0])
-            np.maximum.at(cy1, k, xy[:, 1])
+            np.minimum.at(cx0, kb, xyb[:, 0])
+            np.minimum.at(cy0, kb, xyb[:, 1])
+            np.maximum.at(cx1, kb, xyb[:, 0])
+            np.maximum.at(cy1, kb, xyb[:, 1])
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
@@ -1212,6 +1248,14 @@ class FeatureClusterer:
             ok = ~(self.last_contrast < p.min_contrast)
             cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
             keep_c = ok
+        if self._horizon is not None and p.sky_margin_px > 0 and len(cids):
+            # a boat floats: its box reaches the water, so a box whose bottom lies above the
+            # horizon (a cloud, a bird, the coast) is not reported
+            row = np.maximum(*(np.asarray(self._horizon.row_at(x), np.float64)
+                               for x in (boxes[:, 0], boxes[:, 0] + boxes[:, 2])))
+            ok = ~(boxes[:, 1] + boxes[:, 3] < row - p.sky_margin_px * self._zoom)
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            keep_c = ok if keep_c is None else np.flatnonzero(keep_c)[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
             if p.merge_gap_h > 0:
