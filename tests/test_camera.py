@@ -168,3 +168,31 @@ def test_invalid_pose_rejected():
         CameraModel(K, CameraPose(height_m=0.0))
     with pytest.raises(ValueError, match="lat"):
         CameraModel(K, CameraPose(lat_deg=91.0))
+
+
+@pytest.mark.parametrize("roll", [0.0, 7.0])
+def test_pinhole_kernels_match_the_numpy_formulas(roll):
+    """Without distortion the model projects in compiled kernels; they give what the NumPy path
+    (taken for a distortion tuple of zeros) gives, behind the camera and at scalars included."""
+    cam = _cam(pan=350.0, tilt=-3.0, roll=roll)
+    ref = _cam(pan=350.0, tilt=-3.0, roll=roll, dist=(0.0, 0.0, 0.0, 0.0, 0.0))
+    rng = np.random.default_rng(3)
+    u, v = rng.uniform(-100, 800, (20, 30)), rng.uniform(-100, 700, (20, 30))
+    (az, el), (az2, el2) = cam.pixel_to_azel(u, v), ref.pixel_to_azel(u, v)
+    assert az.shape == u.shape and (az >= 0).all() and (az < 360).all()
+    d = np.abs(az - az2)
+    assert np.minimum(d, 360 - d).max() < 1e-9 and np.abs(el - el2).max() < 1e-9
+    e, n = rng.uniform(-3000, 3000, 400), rng.uniform(-3000, 3000, 400)
+    up = rng.uniform(-5, 50, 400)
+    for curvature in (True, False):
+        got, want = cam.enu_to_pixel(e, n, up, curvature), ref.enu_to_pixel(e, n, up, curvature)
+        assert np.array_equal(np.isnan(got[0]), np.isnan(want[0])) and np.isnan(got[0]).any()  # some behind
+        ok = ~np.isnan(want[0])
+        for a, b in zip(got, want):
+            np.testing.assert_allclose(a[ok], b[ok], rtol=1e-9, atol=1e-9)
+    # curvature drops far points: the two projections differ there
+    assert np.nanmax(np.abs(cam.enu_to_pixel(e, n, up, True)[1] - cam.enu_to_pixel(e, n, up, False)[1])) > 0.1
+    u0, v0, d0 = cam.enu_to_pixel(100.0, 2000.0, 0.0)  # scalars in, NumPy scalars out
+    assert np.ndim(u0) == 0 and np.ndim(d0) == 0 and isinstance(float(u0), float)
+    az0, el0 = cam.pixel_to_azel(352.0, 288.0)
+    assert np.ndim(az0) == 0 and az0 == pytest.approx(float(ref.pixel_to_azel(352.0, 288.0)[0]), abs=1e-9)

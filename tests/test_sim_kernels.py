@@ -16,7 +16,7 @@ from seawatch.sim import make_multicam, make_scenario
 from seawatch.sim import render as R
 from seawatch.sim.scenarios import Scenario
 from seawatch.sim.world import Trajectory, World
-from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, view_grid
+from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, grid_layouts, view_grid
 
 
 # ------------------------------------------------------------------ NumPy references
@@ -185,6 +185,30 @@ def test_view_grid_matches_the_numpy_formulas(world):
             assert not out[6:8].any()
         else:
             assert out[6].max() > 0 and out[7].max() > 0
+
+
+@pytest.mark.parametrize("C", [3, 1])
+def test_grid_layouts_match_stack_and_interp(C):
+    """The interleaved float32 grids equal ``np.stack(...).astype(float32)`` of view_grid's output,
+    and the sea base equals ``np.interp`` of the colour table at the coarse row (clamped at both
+    ends, exact at whole rows, NaN rows kept NaN), its spare channels filled with the texel x."""
+    rng = np.random.default_rng(9)
+    g = rng.normal(0, 50, (9, 13, 17))
+    n = 40
+    g[1] = rng.uniform(-5, n + 5, (13, 17))
+    g[1, 0, :6] = [0.0, n - 1, n - 1.5, 7.0, -1e-12, np.nan]
+    lut = np.floor(rng.uniform(0, 255, (n, C))).astype(np.float32)
+    lo2, hi2 = np.empty((13, 17, 2), np.float32), np.empty((13, 17, 2), np.float32)
+    sea4, base = np.empty((13, 17, 4), np.float32), np.empty((13, 17, 4), np.float32)
+    grid_layouts(g, lut, lo2, hi2, sea4, base)
+    assert np.array_equal(lo2, np.stack([g[0], g[1]], -1).astype(np.float32), equal_nan=True)
+    assert np.array_equal(hi2, np.stack([g[2], g[3]], -1).astype(np.float32))
+    assert np.array_equal(sea4, np.stack([g[4], g[5], g[6], g[7]], -1).astype(np.float32))
+    rows = np.arange(n, dtype=np.float64)
+    ref = [np.interp(g[1], rows, lut[:, k]) for k in range(C)]
+    ref = np.stack(ref + [g[4]] * (4 - C), -1).astype(np.float32)
+    assert np.array_equal(base, ref, equal_nan=True)
+    assert (base[..., 0] == lut[0, 0]).any() and (base[..., 0] == lut[-1, 0]).any()  # both clamps hit
 
 
 def _with_vessels(scn, vessels):

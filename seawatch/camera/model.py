@@ -27,6 +27,8 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 
+from seawatch.camera._kernels import enu_to_pixel_pinhole, pixel_to_azel_pinhole
+
 from seawatch.types import CameraPose, PTZState
 
 __all__ = [
@@ -208,6 +210,13 @@ class CameraModel:
     # ------------------------------------------------------------ angles <-> pixels
     def pixel_to_azel(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         """Azimuth (clockwise from north, [0, 360)) and elevation of pixels, in degrees."""
+        K = self.intrinsics
+        if not K.dist:  # pinhole: one compiled pass
+            u, v = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
+            az, el = np.empty(u.shape), np.empty(u.shape)
+            pixel_to_azel_pinhole(np.ascontiguousarray(u).reshape(-1), np.ascontiguousarray(v).reshape(-1), self.R,
+                                  float(K.fx), float(K.fy), float(K.cx), float(K.cy), az.reshape(-1), el.reshape(-1))
+            return az[()], el[()]  # (NumPy scalars for scalar input, as the ufuncs give)
         w = self.pixel_to_ray(u, v)
         az = np.degrees(np.arctan2(w[..., 0], w[..., 1])) % 360.0
         el = np.degrees(np.arcsin(np.clip(w[..., 2], -1, 1)))
@@ -242,6 +251,15 @@ class CameraModel:
         e, n, up = np.broadcast_arrays(
             np.asarray(e_m, np.float64), np.asarray(n_m, np.float64), np.asarray(up_m, np.float64)
         )
+        K = self.intrinsics
+        if not K.dist:  # pinhole: one compiled pass
+            u, v, depth = np.empty(e.shape), np.empty(e.shape), np.empty(e.shape)
+            flat = [np.ascontiguousarray(a).reshape(-1) for a in (e, n, up)]
+            enu_to_pixel_pinhole(*flat, self.R, float(self.pose.height_m),
+                                 1.0 / (2.0 * self.r_eff_m) if curvature else 0.0, float(K.fx), float(K.fy),
+                                 float(K.cx), float(K.cy),
+                                 u.reshape(-1), v.reshape(-1), depth.reshape(-1))
+            return u[()], v[()], depth[()]
         if curvature:
             up = up - self.curvature_drop_m(np.hypot(e, n))
         w = np.stack([e, n, up - self.pose.height_m], axis=-1)

@@ -555,6 +555,44 @@ def view_grid(az, el, ref_az, pano, height_m, r_eff_m, sea, inv, out):
 
 
 @numba.njit(cache=True, nogil=True)
+def grid_layouts(g, lut, lo2, hi2, sea4, base):
+    """The interleaved float32 grids that a view is built from, out of :func:`view_grid`'s
+    output ``g`` (9, gh, gw), in one pass: ``lo2`` and ``hi2`` (gh, gw, 2), the coarse and sharp
+    panorama coordinates; ``sea4`` (gh, gw, 4), the wave texels, contrast and glint; ``base``
+    (gh, gw, 4), the sea base colour, ``lut`` (rows, C) interpolated at the coarse panorama row
+    ``loy`` as ``np.interp`` does (clamped at both ends), its channels after C filled with the
+    texel ``tx``."""
+    gh, gw = g.shape[1], g.shape[2]
+    n, C = lut.shape
+    for i in range(gh):
+        for j in range(gw):
+            lo2[i, j, 0] = g[0, i, j]
+            lo2[i, j, 1] = g[1, i, j]
+            hi2[i, j, 0] = g[2, i, j]
+            hi2[i, j, 1] = g[3, i, j]
+            for k in range(4):
+                sea4[i, j, k] = g[4 + k, i, j]
+            x = g[1, i, j]
+            for k in range(C):
+                if x != x:
+                    val = np.nan
+                elif x >= n - 1:
+                    val = np.float64(lut[n - 1, k])
+                elif x < 0:
+                    val = np.float64(lut[0, k])
+                else:
+                    jj = int(x)
+                    if jj == x:
+                        val = np.float64(lut[jj, k])
+                    else:
+                        y0 = np.float64(lut[jj, k])
+                        val = (np.float64(lut[jj + 1, k]) - y0) * (x - jj) + y0
+                base[i, j, k] = val
+            for k in range(C, 4):
+                base[i, j, k] = g[4, i, j]
+
+
+@numba.njit(cache=True, nogil=True)
 def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, face_idx, face_nvert, face_part,
                 part_centres, cam_local, sun_local, out):
     """Draw one vessel's faces into a canvas of its own, composite it into ``img`` and write

@@ -40,6 +40,7 @@ from seawatch.sim._kernels import (
     draw_vessel,
     draw_wake,
     first_water_rows,
+    grid_layouts,
     last_dry_row,
     sea_maps_grid,
     sea_shade_grid,
@@ -148,7 +149,7 @@ def _upsample_grid(a: np.ndarray, gw: int, step: int, size: tuple[int, int], r0:
     """Bilinear upsampling of coarse-grid channels ``a`` (gh, gw, K) to rows ``r0:size[0]`` of an
     image whose grid step is ``step`` (the coarse grid has one padding sample around the image:
     sample ``(i, j)`` sits at pixel ``((j - 0.5) * step - 0.5, (i - 0.5) * step - 0.5)``)."""
-    a = a.astype(np.float32)
+    a = a.astype(np.float32, copy=False)
     k0 = max(0, r0 // step - 1)
     # grid rows down to the last one the bottom output row interpolates (one more, so that no
     # row is clamped at the cut: the same pixels as resizing the whole grid)
@@ -390,10 +391,13 @@ class Renderer:
         az, el = cam.pixel_to_azel(U, V)
         pano = self.pano
         f_px = float(cam.intrinsics.fy)
-        lox, loy, hix, hiy, tx, ty, amp, gl, _ = self._grid_params(az, el, f_px, cam.r_eff_m)
-
-        def up(step, size, chans, r0=0):
-            return _upsample_grid(np.stack(chans, axis=-1), gw, step, size, r0)
+        g = self._grid_params(az, el, f_px, cam.r_eff_m)
+        lox, loy, hix, hiy, tx, ty, amp, gl, _ = g
+        # the same grids interleaved as float32 (coarse and sharp panorama maps, sea parameters)
+        # and the sea base colour at each sample, in one compiled pass
+        lo2, hi2 = np.empty((gh, gw, 2), np.float32), np.empty((gh, gw, 2), np.float32)
+        sea4, base4 = np.empty((gh, gw, 4), np.float32), np.empty((gh, gw, 4), np.float32)
+        grid_layouts(g, self._sea_lut, lo2, hi2, sea4, base4)
 
         view = _View()
         view.sea_base = None
@@ -413,7 +417,7 @@ class Renderer:
         b1 = min(H, (int(rows_c[-1]) + 1) * s) if len(rows_c) else H
         m0 = min(r0_, b0)
         # below the band every pixel is water: the panorama coordinates are needed only down to b1
-        hi_map = np.ascontiguousarray(up(s, (b1, W), (hix, hiy), m0)) if m0 < b1 else np.zeros((0, W, 2), np.float32)
+        hi_map = np.ascontiguousarray(_upsample_grid(hi2, gw, s, (b1, W), m0)) if m0 < b1 else np.zeros((0, W, 2), np.float32)
         band_maps = None
         c0 = c1 = 0  # rows that the band covers entirely (they need no coarse layer)
         if b1 > b0:
@@ -444,7 +448,7 @@ class Renderer:
                 # the shore, which the band remap anti-aliases)
                 ys = min(b1, max(r0_, m0 + last_dry_row(hi_map, self._water_top_y) + 3))
         view.half_y0 = view.lod_y = ys
-        mlo = up(s // 2, (min(-(-H // 2), (ys + 1) // 2 + 1), -(-W // 2)), (lox, loy))
+        mlo = _upsample_grid(lo2, gw, s // 2, (min(-(-H // 2), (ys + 1) // 2 + 1), -(-W // 2)))
         for y0, y1 in ((0, c0), (c1, H)) if c1 > c0 and self._lo_skip_band else ((0, H),):
             y1 = min(y1, ys)
             if y1 > y0:
@@ -458,12 +462,9 @@ class Renderer:
         view.hi_r0 = m0
         if r0_ < H:
             view.sea_r0 = r0_
-            view.sea_grid = np.ascontiguousarray(np.stack((tx, ty, amp, gl), axis=-1), np.float32)
-            view.sea_base = None
-            if ys < H:  # the sea base colour: the coarse panorama's elevation profile at loy
-                rows_lo = np.arange(len(self._sea_lut), dtype=np.float64)
-                base = [np.interp(loy, rows_lo, self._sea_lut[:, k]) for k in range(self.C)]
-                view.sea_base = np.ascontiguousarray(np.stack(base + [tx] * (4 - self.C), axis=-1), np.float32)
+            view.sea_grid = sea4
+            # the sea base colour: the coarse panorama's elevation profile at loy (grid_layouts)
+            view.sea_base = base4 if ys < H else None
             # half width from the first pixel row below which every grid row has at most half a
             # texel per pixel across (pixel row y interpolates grid rows i, i + 1 from the top)
             step = np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)).max(axis=1) / s
