@@ -8,7 +8,10 @@ Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_tra
 * :func:`region_check`: the detector with the scan region (``scan_region``) against the same
   detector scanning every row: how many accepted detections differ, and the CPU time of each;
 * :func:`speed_compare`: CPU time per frame of models and grids of window positions on 20
-  MarDCT training frames resized to 704x576.
+  MarDCT training frames resized to 704x576;
+* :func:`speed_settings`: session 14's rule for speed settings (docs/cascade.md): per scale factor
+  the best settings on the 14 MarDCT validation frames, their speed at 704x576 on the MarDCT
+  training and validation frames, and the choice.
 
 Command line::
 
@@ -25,7 +28,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["stage_pass_fractions", "region_check", "speed_compare"]
+__all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -144,6 +147,67 @@ def speed_compare(models, images, size=(704, 576), grids=(0, 2), reps: int = 3) 
             "cpu_ms_median": {k: round(1000 * float(np.median(v)), 2) for k, v in ts.items()}}
 
 
+def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 1.3, 1.4, 1.5),
+                   target_fps: float = 50.0, size=(704, 576), passes: int = 3, log=print) -> dict:
+    """Session 14's rule for the detector's speed settings (fixed before it was run on MarDCT video2).
+
+    1. Per scale factor, the best ``min_neighbors`` and size exponent on the 14 MarDCT validation
+       frames by session 11's criterion (:func:`seawatch.train.recipe.select_detector_settings`,
+       the model's grid of window positions).
+    2. The speed of each at ``size``: the whole detector (horizon line, cascade with its scan
+       region, filters) on the MarDCT training and validation frames resized to ``size``, each
+       a still (horizon state reset, the line detected on it); CPU time, one core; the detectors
+       interleaved frame by frame; ``passes`` passes; the median over all of them.
+    3. Chosen: the highest validation score among the settings reaching ``target_fps``; when none
+       does, none is chosen (``chosen`` None).
+
+    Never MarDCT video2, never the held-out part.
+    """
+    from seawatch.detect.cascade import CascadeDetector
+    from seawatch.train.recipe import _raw_grey, select_detector_settings
+
+    cv2.setNumThreads(1)
+    val = [im for im in parts["val"] if im.source == "mardct"]
+    _, table = select_detector_settings(model_xml, val, scale_factors=tuple(scale_factors),
+                                        fixed_min_size_px={"coral": 20.0}, log=log)
+    best = {}
+    for key, row in table.items():
+        sf = float(key.split("_")[0][2:])
+        if sf not in best or row["score"] > best[sf]["score"] + 1e-12:
+            mn, ex = key.split("_")[1][2:], key.split("_")[2][3:]
+            best[sf] = {"scale_factor": sf, "min_neighbors": int(mn), "neighbors_size_exp": float(ex),
+                        "score": row["score"], "macro_F1@0.3": row["macro_F1@0.3"], "macro_F1@0.5": row["macro_F1@0.5"]}
+    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    greys = [cv2.resize(_raw_grey(im), size, interpolation=cv2.INTER_LINEAR) for im in ims]
+    dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
+                                neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
+    ts = {sf: [] for sf in dets}
+    per_pass = {sf: [] for sf in dets}
+    for _ in range(passes):
+        tp = {sf: [] for sf in dets}
+        for g in greys:
+            for sf, d in dets.items():
+                d.reset()
+                c0 = time.process_time()
+                d.detect_grey(g, 0.0)
+                tp[sf].append(time.process_time() - c0)
+        for sf in dets:
+            ts[sf] += tp[sf]
+            per_pass[sf].append(round(1.0 / float(np.median(tp[sf])), 2))
+    rows = []
+    for sf, b in sorted(best.items()):
+        fps = 1.0 / float(np.median(ts[sf]))
+        rows.append({**b, "fps": round(fps, 2), "fps_per_pass": per_pass[sf],
+                     "ms_per_frame": round(1000.0 / fps, 3)})
+        log(f"  sf {sf:g}: {b['min_neighbors']} / {b['neighbors_size_exp']:g}, validation score {b['score']:.4f}, "
+            f"{fps:.1f} frames/s at {size[0]}x{size[1]} (passes {per_pass[sf]})")
+    ok = [r for r in rows if r["fps"] >= target_fps]
+    chosen = max(ok, key=lambda r: r["score"]) if ok else None
+    log(f"  chosen: {chosen}")
+    return {"rule": "session 14 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
+            "speed_frames": len(greys), "passes": passes, "candidates": rows, "chosen": chosen}
+
+
 def _unmatched(a: np.ndarray, b: np.ndarray) -> int:
     a = np.asarray(a, np.float64).reshape(-1, 4)
     b = np.asarray(b, np.float64).reshape(-1, 4)
@@ -157,7 +221,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--model", type=Path, required=True)
     ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
-    ap.add_argument("--what", default="stages,region")
+    ap.add_argument("--what", default="stages,region", help="stages, region, speed, speedrule (comma-separated)")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
@@ -167,17 +231,20 @@ def main(argv=None) -> int:
     parts = load_training_data(a.data, use_sim=not a.no_sim, seed=0)
     imgs = [im for p in a.parts.split(",") for im in parts[p.strip()]]
     res = {"model": str(a.model), "parts": a.parts, "n_images": len(imgs)}
-    if "stages" in a.what:
+    what = {w.strip() for w in a.what.split(",")}
+    if "stages" in what:
         res["stages"] = stage_pass_fractions(a.model, [im for im in parts["train"]])
         print(json.dumps(res["stages"], indent=1))
-    if "region" in a.what:
+    if "region" in what:
         res["region"] = region_check(a.model, imgs)
         print(json.dumps(res["region"], indent=1))
-    if "speed" in a.what:
+    if "speed" in what:
         models = [a.model] + [Path(m) for m in a.speed_models.split(",") if m.strip()]
         mardct = [im for im in parts["train"] if im.source == "mardct"][::5][:20]
         res["speed"] = speed_compare(models, mardct)
         print(json.dumps(res["speed"], indent=1))
+    if "speedrule" in what:
+        res["speed_settings"] = speed_settings(a.model, parts)
     if a.out:
         a.out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
     return 0
