@@ -16,7 +16,8 @@ from seawatch.sim import make_multicam, make_scenario
 from seawatch.sim import render as R
 from seawatch.sim.scenarios import Scenario
 from seawatch.sim.world import Trajectory, World
-from seawatch.sim._kernels import blend_foam, blend_reflection, fill_polys, grid_layouts, view_grid
+from seawatch.sim._kernels import (blend_foam, blend_reflection, fill_polys, grid_layouts, trajectory_states,
+                                   view_grid)
 
 
 # ------------------------------------------------------------------ NumPy references
@@ -209,6 +210,30 @@ def test_grid_layouts_match_stack_and_interp(C):
     ref = np.stack(ref + [g[4]] * (4 - C), -1).astype(np.float32)
     assert np.array_equal(base, ref, equal_nan=True)
     assert (base[..., 0] == lut[0, 0]).any() and (base[..., 0] == lut[-1, 0]).any()  # both clamps hit
+
+
+def test_trajectory_states_match_trajectory_state():
+    """Packed legs evaluated in one kernel give Trajectory.state's scalar path to the last bit,
+    and its array path to rounding: straight and turning legs, before the start, on a leg's
+    first instant, long after the last leg began, vessels in any order."""
+    trajs = [Trajectory(10.0, -20.0, 45.0, ((1e9, 3.0, 0.0),)),
+             Trajectory(-300.0, 50.0, 350.0, ((5.0, 2.0, 0.0), (4.0, 2.5, 6.0), (0.0, 1.0, 0.0), (1e9, 1.0, -3.0))),
+             Trajectory(0.0, 0.0, 0.0)]
+    tabs = [t._table for t in trajs]
+    off = np.cumsum([0] + [len(t[0]) for t in tabs]).astype(np.int64)
+    cat = [np.concatenate([t[i] for t in tabs]) for i in range(4)]
+    legs = np.concatenate([t[4] for t in tabs])
+    times = np.array([-3.0, 0.0, 2.5, 5.0, 7.25, 9.0, 9.0 + 1e-12, 40.0, 1e5])
+    ks = np.array([2, 0, 1, 1], np.int64)
+    t = np.stack([times, times + 0.5, times, times - 0.25])
+    out = np.empty(t.shape + (4,))
+    trajectory_states(t, ks, off, *cat, np.ascontiguousarray(legs[:, 1]), np.ascontiguousarray(legs[:, 2]), out)
+    for a, k in enumerate(ks):
+        for j, tt in enumerate(t[a]):
+            assert tuple(out[a, j]) == tuple(float(x) for x in trajs[k].state(float(tt)))  # scalar path: exact
+        arr = np.stack(trajs[k].state(t[a]), -1)
+        np.testing.assert_allclose(out[a], arr, rtol=1e-12, atol=1e-9)
+    assert out[2, 5, 2] != out[2, 0, 2]  # the turning vessel's course changed
 
 
 def _with_vessels(scn, vessels):

@@ -4,6 +4,8 @@ would dominate."""
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -590,6 +592,71 @@ def grid_layouts(g, lut, lo2, hi2, sea4, base):
                 base[i, j, k] = val
             for k in range(C, 4):
                 base[i, j, k] = g[4, i, j]
+
+
+@numba.njit(cache=True, nogil=True)
+def trajectory_states(t, ks, off, ts, es, ns, cs, vs, ws, out):
+    """Position, course and speed of vessels ``ks`` at times ``t`` (len(ks), T), as
+    :meth:`Trajectory.state`'s scalar path computes them: ``out`` (len(ks), T, 4) gets e, n (m),
+    course (deg) and speed (m/s).  Vessel ``k``'s legs are rows ``off[k] .. off[k + 1]`` of the
+    packed tables (start time, e, n, course; speed and turn rate of each leg)."""
+    d2r = math.pi / 180.0
+    for a in range(ks.shape[0]):
+        k = ks[a]
+        i0, i1 = off[k], off[k + 1]
+        for j in range(t.shape[1]):
+            tt = t[a, j]
+            i = i0  # the last leg starting at or before tt (the first before the start)
+            while i + 1 < i1 and ts[i + 1] <= tt:
+                i += 1
+            dt = tt - ts[i]
+            v, wd, c0 = vs[i], ws[i], cs[i]
+            if abs(wd) < 1e-9:
+                c = c0 * d2r
+                out[a, j, 0] = es[i] + v * dt * math.sin(c)
+                out[a, j, 1] = ns[i] + v * dt * math.cos(c)
+                out[a, j, 2] = c0 % 360.0
+            else:
+                w = wd * d2r
+                a0 = c0 * d2r
+                a1 = c0 * d2r + w * dt
+                out[a, j, 0] = es[i] + v / w * (math.cos(a0) - math.cos(a1))
+                out[a, j, 1] = ns[i] + v / w * (math.sin(a1) - math.sin(a0))
+                out[a, j, 2] = (c0 + wd * dt) % 360.0
+            out[a, j, 3] = v
+
+
+@numba.njit(cache=True, nogil=True)
+def vessel_poses(st, ids, lengths, t_s, motion, par):
+    """Pose parameters of every vessel from its state ``st`` (V, 4) at ``t_s``: ``par`` (13, V)
+    gets e, n, the forward and port unit vectors (2 each), cos and sin of roll and of pitch, the
+    heave (m), roll and pitch (rad); with ``motion`` the vessels roll, pitch and heave in the
+    waves (smaller boats more), else those are 0."""
+    d2r = math.pi / 180.0
+    two_pi = 2 * math.pi
+    for k in range(st.shape[0]):
+        c = st[k, 2] * d2r
+        roll = pitch = heave = 0.0
+        if motion:
+            L = lengths[k]
+            ph = (ids[k] * 2.399) % two_pi
+            small = 1.0 / (1.0 + L / 15.0)
+            roll = (5.0 * small * d2r) * math.sin(two_pi * t_s / (3.0 + 0.05 * L) + ph)
+            pitch = (2.0 * small * d2r) * math.sin(two_pi * t_s / (2.5 + 0.04 * L) + 2 * ph)
+            heave = 0.15 * small * math.sin(two_pi * t_s / 3.1 + 3 * ph)
+        par[0, k] = st[k, 0]
+        par[1, k] = st[k, 1]
+        par[2, k] = math.sin(c)
+        par[3, k] = math.cos(c)
+        par[4, k] = -math.cos(c)
+        par[5, k] = math.sin(c)
+        par[6, k] = math.cos(roll)
+        par[7, k] = math.sin(roll)
+        par[8, k] = math.cos(pitch)
+        par[9, k] = math.sin(pitch)
+        par[10, k] = heave
+        par[11, k] = roll
+        par[12, k] = pitch
 
 
 @numba.njit(cache=True, nogil=True)

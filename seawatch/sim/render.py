@@ -45,6 +45,8 @@ from seawatch.sim._kernels import (
     sea_maps_grid,
     sea_shade_grid,
     sea_waves_grid,
+    trajectory_states,
+    vessel_poses,
     view_grid,
     wake_quads,
 )
@@ -645,6 +647,29 @@ class Renderer:
         return img.reshape(H, W, self.C), water_row
 
     # --------------------------------------------------------------------- vessels
+    def _traj_table(self):
+        """Every vessel's trajectory legs packed for :func:`trajectory_states`, with the vessels'
+        ids and lengths (remade when the vessel list changes)."""
+        vs = self.world.vessels
+        key = tuple((id(v.trajectory), v.id, v.length_m) for v in vs)
+        tab = self.__dict__.get("_traj_tab")
+        if tab is None or tab[0] != key:
+            tabs = [v.trajectory._table for v in vs]
+            cat = (lambda i: np.concatenate([t[i] for t in tabs]).astype(np.float64)) if vs else (lambda i: np.zeros(0))
+            legs = np.concatenate([t[4] for t in tabs]) if vs else np.zeros((0, 3))
+            off = np.cumsum([0] + [len(t[0]) for t in tabs]).astype(np.int64)
+            tab = self._traj_tab = (key, off, cat(0), cat(1), cat(2), cat(3), np.ascontiguousarray(legs[:, 1]),
+                                    np.ascontiguousarray(legs[:, 2]), np.array([v.id for v in vs], np.int64),
+                                    np.array([v.length_m for v in vs], np.float64))
+        return tab[1:]
+
+    def _states(self, ks: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``(len(ks), T, 4)`` e, n, course, speed of vessels ``ks`` at times ``t`` (len(ks), T)."""
+        off, ts, es, ns, cs, vs, ws = self._traj_table()[:7]
+        out = np.empty(t.shape + (4,))
+        trajectory_states(t, ks, off, ts, es, ns, cs, vs, ws, out)
+        return out
+
     def _vessel_points(self, t_s: float):
         """World vertices of every vessel at ``t_s``, concatenated: ``(E, N, Z, bounds, poses)``,
         vessel ``k``'s vertices at ``bounds[k]:bounds[k + 1]`` and its pose ``poses[k] = (e, n,
@@ -658,24 +683,16 @@ class Renderer:
             cat = self._verts_cat = (key, [v.model for v in vs], verts[:, 0].copy(), verts[:, 1].copy(),
                                      verts[:, 2].copy(), np.repeat(np.arange(len(vs)), sizes), np.cumsum([0] + sizes))
         x, y, z, owner, bounds = cat[2:]
-        poses = []
-        par = np.empty((11, len(vs)))  # e, n, fwd (2), port (2), cos and sin of roll and pitch, heave
-        for k, v in enumerate(vs):
-            e, n, course, speed = (float(a) for a in v.state(t_s))
-            c = math.radians(course)
-            fwd = (math.sin(c), math.cos(c))
-            port = (-math.cos(c), math.sin(c))
-            roll = pitch = heave = 0.0
-            if self.options.vessel_motion:
-                ph = (v.id * 2.399) % (2 * math.pi)
-                small = 1.0 / (1.0 + v.length_m / 15.0)
-                roll = math.radians(5.0 * small) * math.sin(2 * math.pi * t_s / (3.0 + 0.05 * v.length_m) + ph)
-                pitch = math.radians(2.0 * small) * math.sin(2 * math.pi * t_s / (2.5 + 0.04 * v.length_m) + 2 * ph)
-                heave = 0.15 * small * math.sin(2 * math.pi * t_s / 3.1 + 3 * ph)
-            par[:, k] = (e, n, fwd[0], fwd[1], port[0], port[1], math.cos(roll), math.sin(roll), math.cos(pitch),
-                         math.sin(pitch), heave)
-            poses.append((e, n, course, speed, fwd, port, roll, pitch, heave))
-        e, n, f0, f1, p0, p1, cr, sr, cp, sp, heave = par[:, owner]
+        nv = len(vs)
+        st = self._states(np.arange(nv), np.full((nv, 1), float(t_s)))[:, 0]
+        ids, lengths = self._traj_table()[7:]
+        # e, n, fwd (2), port (2), cos and sin of roll and pitch, heave, roll, pitch
+        par = np.empty((13, nv))
+        vessel_poses(st, ids, lengths, float(t_s), bool(self.options.vessel_motion), par)
+        cols = par.T.tolist()
+        stl = st.tolist()
+        poses = [(p[0], p[1], q[2], q[3], (p[2], p[3]), (p[4], p[5]), p[11], p[12], p[10]) for p, q in zip(cols, stl)]
+        e, n, f0, f1, p0, p1, cr, sr, cp, sp, heave = par[:11, owner]
         if self.options.vessel_motion:  # the vessels' attitude (roll about the keel, then pitch)
             y, z = y * cr - z * sr, y * sr + z * cr
             x, z = x * cp - z * sp, x * sp + z * cp
@@ -952,22 +969,21 @@ class Renderer:
         alpha (q,), ok (q,))`` (``ok``: the quads wholly in front of the camera); the foam of the
         turbulent wake, the Kelvin arms and the bow wave."""
         tau = _WAKE_TAU
-        rows = []
-        for k in ks:
-            vessel = self.world.vessels[k]
-            e, n, course, speed = vessel.state(t_s - tau)
-            if float(speed[0]) >= 0.3:
-                rows.append((k, e, n, course, float(speed[0]), vessel.length_m, vessel.beam_m))
-        if not rows:
+        ks = np.asarray(ks, np.int64)
+        st = self._states(ks, t_s - np.broadcast_to(tau, (len(ks), len(tau))))  # (V, len(tau), 4)
+        moving = st[:, 0, 3] >= 0.3
+        if not moving.any():
             return {}
-        e = np.array([r[1] for r in rows])  # (V, len(tau))
-        n = np.array([r[2] for r in rows])
-        c = np.radians(np.array([r[3] for r in rows]))
-        V, nq = len(rows), len(tau) - 1
+        ks, st = ks[moving], st[moving]
+        vs = self.world.vessels
+        c = np.radians(st[..., 2])
+        V, nq = len(ks), len(tau) - 1
         Q = np.empty((V, 3 * nq + 1, 4, 2))
         al = np.empty((V, 3 * nq + 1))
-        wake_quads(e, n, np.sin(c), np.cos(c), np.array([r[4] for r in rows]), np.array([r[5] for r in rows], float),
-                   np.array([r[6] for r in rows], float), tau, _WAKE_DECAY, Q, al)
+        wake_quads(np.ascontiguousarray(st[..., 0]), np.ascontiguousarray(st[..., 1]), np.sin(c), np.cos(c),
+                   np.ascontiguousarray(st[:, 0, 3]), np.array([vs[k].length_m for k in ks], float),
+                   np.array([vs[k].beam_m for k in ks], float), tau, _WAKE_DECAY, Q, al)
+        rows = [(int(k),) for k in ks]
         ce, cn = self._to_cam(Q[..., 0], Q[..., 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
         ok = (dd > 0.5).all(axis=-1)  # (V, q)
