@@ -9,6 +9,9 @@ Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_tra
   detector scanning every row: how many accepted detections differ, and the CPU time of each;
 * :func:`speed_compare`: CPU time per frame of models and grids of window positions on 20
   MarDCT training frames resized to 704x576;
+* :func:`horizon_check`: how often the horizon detector finds a line at each working width, on the
+  images at their own size and resized to 704x576, how often it agrees with the full-size line, and
+  how many annotated boats its filter would drop;
 * :func:`speed_settings`: session 14's rule for speed settings (docs/cascade.md): per scale factor
   the best settings on the 14 MarDCT validation frames, their speed at 704x576 on the MarDCT
   training and validation frames, and the choice.
@@ -28,7 +31,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings"]
+__all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "horizon_check"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -208,6 +211,50 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
             "speed_frames": len(greys), "passes": passes, "candidates": rows, "chosen": chosen}
 
 
+def horizon_check(images, widths=(640, 320, 352, 384, (352, 288)), size=(704, 576), agree_frac: float = 0.015) -> dict:
+    """The horizon detector at several working widths (``work_width_px`` of
+    :func:`seawatch.detect.horizon.detect_horizon`) on labelled images, each at its own size and
+    resized to ``size`` (linear): per source, the images with a line, the annotated boats in them
+    that :func:`~seawatch.detect.horizon.horizon_filter` would drop, how many lines agree (both
+    ends within ``agree_frac`` of the image height) with the line found on the image at its own
+    size by the detector working at full size up to 640 px (session 13's), and the median CPU ms
+    per call."""
+    from seawatch.detect.horizon import Horizon, detect_horizon, horizon_filter
+    from seawatch.train.recipe import _raw_grey
+
+    cv2.setNumThreads(1)
+    data = [(im.source, _raw_grey(im), im.boxes) for im in images]
+    ref = [detect_horizon(g, work_width_px=0 if g.shape[1] <= 640 else 640) for _, g, _ in data]
+    out = {}
+    for ww in widths:
+        key = ",".join(str(x) for x in ww) if isinstance(ww, tuple) else str(ww)
+        for sz in ("native", f"{size[0]}x{size[1]}"):
+            st: dict = {}
+            ts = []
+            for (src, g, boxes), r0 in zip(data, ref):
+                h0 = g.shape[0]
+                gi = g if sz == "native" else cv2.resize(g, size, interpolation=cv2.INTER_LINEAR)
+                c0 = time.process_time()
+                hz = detect_horizon(gi, work_width_px=ww)
+                ts.append(time.process_time() - c0)
+                d = st.setdefault(src, {"images": 0, "lines": 0, "boats_in_line_images": 0, "boats_dropped": 0,
+                                        "lines_with_reference": 0, "agreeing": 0})
+                d["images"] += 1
+                if hz is None:
+                    continue
+                sy = h0 / gi.shape[0]
+                hz = Horizon((hz.y_left + 0.5) * sy - 0.5, (hz.y_right + 0.5) * sy - 0.5, g.shape[1], hz.kind)
+                d["lines"] += 1
+                d["boats_in_line_images"] += len(boxes)
+                d["boats_dropped"] += int((~horizon_filter(boxes, hz)).sum()) if len(boxes) else 0
+                if r0 is not None:
+                    d["lines_with_reference"] += 1
+                    e = max(abs(hz.y_left - r0.y_left), abs(hz.y_right - r0.y_right)) / h0
+                    d["agreeing"] += int(e <= agree_frac)
+            out[f"{key} {sz}"] = {"cpu_ms_median": round(1000 * float(np.median(ts)), 3), **st}
+    return out
+
+
 def _unmatched(a: np.ndarray, b: np.ndarray) -> int:
     a = np.asarray(a, np.float64).reshape(-1, 4)
     b = np.asarray(b, np.float64).reshape(-1, 4)
@@ -221,7 +268,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--model", type=Path, required=True)
     ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
-    ap.add_argument("--what", default="stages,region", help="stages, region, speed, speedrule (comma-separated)")
+    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule (comma-separated)")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
@@ -243,6 +290,9 @@ def main(argv=None) -> int:
         mardct = [im for im in parts["train"] if im.source == "mardct"][::5][:20]
         res["speed"] = speed_compare(models, mardct)
         print(json.dumps(res["speed"], indent=1))
+    if "horizon" in what:
+        res["horizon"] = horizon_check(imgs)
+        print(json.dumps(res["horizon"], indent=1))
     if "speedrule" in what:
         res["speed_settings"] = speed_settings(a.model, parts)
     if a.out:
