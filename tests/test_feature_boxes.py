@@ -383,3 +383,29 @@ def test_a_cluster_above_the_horizon_is_not_reported():
     # without a horizon nothing is dropped
     _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=20.0)).update(snap(xy, vel, 0.0, 0))
     assert len(tr) == 3
+
+
+def test_two_clusters_reported_as_one_stay_one_until_they_move_apart():
+    # two clusters side by side (too far apart for an edge at radius 4 px) whose boxes overlap
+    # by 0.27 of the smaller one: one report, the older identity
+    a = [[100, 60], [103, 60]]
+    v = [[20, 0]] * 4
+
+    def run(keep, b2, v2):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=keep))
+        _, t1 = c.update(snap(a + [[108, 60], [111, 60]], v, 0.0, 0))
+        _, t2 = c.update(snap(a + b2, v[:2] + v2, 0.1, 1))
+        return t1, t2
+
+    for keep in (0.0, 0.5):
+        t1, _ = run(keep, [[108, 60], [111, 60]], [[20, 0]] * 2)
+        assert t1.ids.tolist() == [1] and t1.boxes[0].tolist() == pytest.approx([96, 56, 19, 8])
+    # next frame the second moves 2 px on: the boxes overlap by 0.09 only, but each lies (by at
+    # least half its area) inside the last frame's report
+    _, t2 = run(0.0, [[110, 60], [113, 60]], [[20, 0]] * 2)
+    assert t2.ids.tolist() == [1, 2]
+    _, t2 = run(0.5, [[110, 60], [113, 60]], [[20, 0]] * 2)
+    assert t2.ids.tolist() == [1] and t2.boxes[0].tolist() == pytest.approx([96, 56, 21, 8])
+    # ... unless they now move apart (28 px/s, over the 5 px/s of merge_dv_px_s)
+    _, t2 = run(0.5, [[110, 60], [113, 60]], [[0, 20]] * 2)
+    assert t2.ids.tolist() == [1, 2]

@@ -280,3 +280,28 @@ def test_guided_best_two_picks_the_two_nearest_candidates():
         if len(cand) > 1:
             assert nn[q, 1] == cand[order[1]]
     assert nn[5, 0] == -1 and np.isinf(dist[5, 0])
+
+
+def test_no_new_feature_on_top_of_an_active_one():
+    """An unmatched keypoint within ``dedup_px`` of an active feature does not become a second
+    feature of that point (two features of one point spoil each other's ratio test)."""
+    rng = np.random.default_rng(5)
+    img = np.full((H, W), 110, np.uint8)
+    for _ in range(60):
+        x, y, s = rng.integers(5, W - 15), rng.integers(5, H - 15), rng.integers(3, 8)
+        img[y: y + s, x: x + s] = rng.integers(0, 60) if rng.random() < 0.5 else rng.integers(170, 255)
+    flipped = (255 - img).astype(np.uint8)  # the same blobs, other descriptors: nothing matches
+    counts = {}
+    for dedup in (0.0, 2.0):
+        # min_quality 1: only identical descriptors match (the repeated frame), so the flipped
+        # frame matches nothing and the camera stays put
+        ext = StableFeatureExtractor(nominal_fps=FPS, dedup_px=dedup, guided_px=0, min_quality=1.0)
+        for k in range(3):  # confidence 3: the features outlive one unmatched frame
+            first = ext.process(img, k / FPS)
+        old = {int(i): xy for i, xy in zip(first.ids, first.xy)}
+        second = ext.process(flipped, 3.0 / FPS)
+        new = np.array([xy for i, xy in zip(second.ids, second.xy) if int(i) not in old]).reshape(-1, 2)
+        gap = np.hypot(*(new[:, None, :] - np.array(list(old.values()))[None]).transpose(2, 0, 1)).min(axis=1)
+        counts[dedup] = (len(new), int((gap <= 2.0).sum()))
+    assert counts[0.0][1] > 10  # without it, most blobs get a second feature
+    assert counts[2.0][1] == 0 and counts[2.0][0] < counts[0.0][0]

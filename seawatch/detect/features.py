@@ -497,6 +497,7 @@ class StableFeatureExtractor:
         band_describe_upscaled: bool = False,
         band_min_size_px: float = 0.0,
         guided_min_quality: float = 0.25,
+        dedup_px: float = 0.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -544,6 +545,7 @@ class StableFeatureExtractor:
         self.scene_motion = bool(scene_motion)
         self.guided_px = float(guided_px)
         self.guided_min_quality = float(guided_min_quality)
+        self.dedup_px = float(dedup_px)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -976,6 +978,14 @@ class StableFeatureExtractor:
 
         # unmatched keypoints become new features
         new_q = np.setdiff1d(np.arange(len(kxy)), qi, assume_unique=True)
+        if len(new_q) and self.dedup_px > 0:
+            # not one on top of an active feature: two features of one point spoil each
+            # other's ratio test, so that neither matches again
+            alive = np.flatnonzero(self._alive)
+            if len(alive):
+                d, _ = cKDTree(self._xy[alive]).query(kxy[new_q], k=1,
+                                                      distance_upper_bound=self.dedup_px * self._scale)
+                new_q = new_q[~np.isfinite(d)]
         if len(new_q):
             free = np.flatnonzero(~self._alive)
             if len(free) < len(new_q):

@@ -802,7 +802,8 @@ def _box_members(k, vel, n, max_dv):
     return keep
 
 
-def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0):
+def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
+                       sticky=None, groups=None):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -810,11 +811,15 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     overlapping by half the lower box) less than ``gap_h`` times the taller box's height apart,
     whose relative velocities differ by at most ``max_dv``, when both are at least ``min_h`` tall
     (parts of one long hull seen large, e.g. the bow and the superstructure of a ship at full
-    zoom; small boats side by side are left apart)."""
+    zoom; small boats side by side are left apart).  ``sticky``: pairs of cluster identities
+    (frozensets) joined whatever their boxes; ``groups`` (a list), when given, receives the
+    identities joined into each report (a list per report, in the order returned)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
+    sv = None if rel_vel is None or not sticky else np.asarray(rel_vel, np.float64)[order].copy()
     alive = np.ones(len(cids), bool)
+    members = [[int(c)] for c in cids]
     for i in range(len(cids)):
         if not alive[i]:
             continue
@@ -826,6 +831,10 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
             small = min(a[2] * a[3], b[2] * b[3])
             join = iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small
+            if not join and sticky and any(frozenset((x, y)) in sticky for x in members[i] for y in members[j]):
+                # joined in the last frame: still one object unless they now move apart
+                dv = np.zeros(2) if sv is None else sv[i] - sv[j]
+                join = not (np.all(np.isfinite(dv)) and np.hypot(dv[0], dv[1]) > max_dv > 0)
             if (not join and rv is not None and min(a[3], b[3]) >= min_h and ih >= 0.5 * min(a[3], b[3]) > 0
                     and -iw <= gap_h * max(a[3], b[3])):
                 dv = rv[i] - rv[j]
@@ -838,8 +847,16 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 vel[i] = (vel[i] * count[i] + vel[j] * count[j]) / tot
                 if rv is not None:
                     rv[i] = (rv[i] * count[i] + rv[j] * count[j]) / tot
+                if sv is not None:
+                    if np.all(np.isfinite(sv[i])) and np.all(np.isfinite(sv[j])):
+                        sv[i] = (sv[i] * count[i] + sv[j] * count[j]) / tot
+                    elif not np.all(np.isfinite(sv[i])):
+                        sv[i] = sv[j]
                 count[i] += count[j]
+                members[i] += members[j]
                 alive[j] = False
+    if groups is not None:
+        groups.extend(members[i] for i in np.flatnonzero(alive))
     return cids[alive], boxes[alive], count[alive], vel[alive]
 
 
@@ -863,7 +880,9 @@ class ClusterParams:
     than this (times the zoom) above it is not reported (a cloud); ``box_dv_px_s`` (2.5; 0 off):
     a cluster's box is drawn around the members whose velocity relative to the scene is within
     this of the cluster's median (clusters of three or more; a feature of the coast or another
-    boat linked in stays in the cluster but not in its box)."""
+    boat linked in stays in the cluster but not in its box); ``merge_keep`` (0.5; 0 off):
+    clusters reported as one stay one while each box lies by this much inside the last frame's
+    report and they move alike (see :meth:`FeatureClusterer._sticky_pairs`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -900,6 +919,7 @@ class ClusterParams:
     relink_undo_drop_alias: bool = False
     sky_margin_px: float = 5.0
     box_dv_px_s: float = 2.5
+    merge_keep: float = 0.5
 
 
 class FeatureClusterer:
@@ -947,11 +967,48 @@ class FeatureClusterer:
         self._prev_camera = None
         self._zoom = 1.0
         self._horizon = None
+        self._merged: list = []  # (cluster identities, box) of last frame's reports joined from several clusters
 
     def reset(self) -> None:
         self.graph.reset()
         self.noise_px_s = float("nan")
         self._relink_reset()
+
+    def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
+        """Clusters reported as one object in the last frame stay one while each box lies, by at
+        least ``merge_keep`` of its area, inside that report's box carried into this frame by the
+        camera motion (not in the paper: two clusters on one long hull at full zoom, whose grown
+        boxes overlap in one frame and not in the next, would otherwise be one report and then
+        two, the identity going back and forth between them).  A cluster belongs to a last
+        frame's report when at least a quarter of its features that were there were in it
+        (cluster identities change as the clusters merge and split)."""
+        out = set()
+        if not self._merged or len(cids) < 2:
+            return out
+        h = np.asarray(snap.homography, np.float64)
+        for fids, pb in self._merged:
+            here = []
+            for i, c in enumerate(cids):
+                f = snap.ids[labels == c]
+                if len(f) and np.isin(f, fids).sum() * 4 >= len(f):
+                    here.append(i)
+            if len(here) < 2:
+                continue
+            if np.all(np.isfinite(h)):
+                c = h @ np.array([pb[0], pb[1], 1.0]), h @ np.array([pb[0] + pb[2], pb[1] + pb[3], 1.0])
+                if abs(c[0][2]) > 1e-12 and abs(c[1][2]) > 1e-12:
+                    x0, y0 = c[0][:2] / c[0][2]
+                    x1, y1 = c[1][:2] / c[1][2]
+                    pb = np.array([x0, y0, x1 - x0, y1 - y0])
+            inside = []
+            for i in here:
+                b = boxes[i]
+                iw = min(b[0] + b[2], pb[0] + pb[2]) - max(b[0], pb[0])
+                ih = min(b[1] + b[3], pb[1] + pb[3]) - max(b[1], pb[1])
+                if iw > 0 and ih > 0 and iw * ih >= self.params.merge_keep * b[2] * b[3]:
+                    inside.append(int(cids[i]))
+            out.update(frozenset((a, b)) for k, a in enumerate(inside) for b in inside[k + 1:])
+        return out
 
     def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
                 vel: np.ndarray | None = None) -> np.ndarray:
@@ -1258,7 +1315,7 @@ class FeatureClusterer:
             keep_c = ok if keep_c is None else np.flatnonzero(keep_c)[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
-            if p.merge_gap_h > 0:
+            if p.merge_gap_h > 0 or p.merge_keep > 0:
                 with np.errstate(invalid="ignore"), warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
                     fv = np.nanmean(snap.history[m], axis=1)  # each member's velocity relative to the scene
@@ -1269,8 +1326,14 @@ class FeatureClusterer:
                 rv = np.where(rn[:, None] > 0, rs / np.maximum(rn, 1)[:, None], np.nan)
                 if keep_c is not None:
                     rv = rv[keep_c]
+            sticky = self._sticky_pairs(snap, labels, cids, boxes) if p.merge_keep > 0 else None
+            groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
-                                                         p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px)
+                                                         p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
+                                                         sticky, groups)
+            self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
+        else:
+            self._merged = []
         if p.relink_s > 0:
             ids = self._relink(snap, cids, boxes, vel)
             for r in ids:
