@@ -16,8 +16,8 @@ from seawatch.sim import make_multicam, make_scenario
 from seawatch.sim import render as R
 from seawatch.sim.scenarios import Scenario
 from seawatch.sim.world import Trajectory, World
-from seawatch.sim._kernels import (blend_foam, blend_reflection, fill_polys, grid_layouts, trajectory_states,
-                                   view_grid)
+from seawatch.sim._kernels import (blend_foam, blend_reflection, fill_polys, grid_layouts, label_boxes,
+                                   trajectory_states, view_grid)
 
 
 # ------------------------------------------------------------------ NumPy references
@@ -234,6 +234,32 @@ def test_trajectory_states_match_trajectory_state():
         arr = np.stack(trajs[k].state(t[a]), -1)
         np.testing.assert_allclose(out[a], arr, rtol=1e-12, atol=1e-9)
     assert out[2, 5, 2] != out[2, 0, 2]  # the turning vessel's course changed
+
+
+def test_label_boxes_match_opencv():
+    """Visible-pixel counts and tight boxes per label equal cv2.countNonZero and cv2.boundingRect
+    of the label mask in each box; a label with no pixel left gets the full box."""
+    import cv2
+
+    rng = np.random.default_rng(2)
+    label = np.zeros((60, 80), np.uint8)
+    label[10:30, 5:40] = 3
+    label[rng.random((60, 80)) < 0.1] = 7
+    label[15:25, 20:60] = 9  # hides part of 3
+    boxes = np.array([[3, 8, 45, 33], [0, 0, 80, 60], [10, 10, 70, 40], [50, 50, 60, 58]], np.int64)
+    labs = np.array([3, 7, 9, 5], np.int64)
+    out = np.empty((4, 5), np.int64)
+    label_boxes(label, labs, boxes, out)
+    for i, (lab, (x0, y0, x1, y1)) in enumerate(zip(labs, boxes)):
+        m = (label[y0:y1, x0:x1] == lab).astype(np.uint8)
+        n = cv2.countNonZero(m)
+        assert out[i, 0] == n
+        if n:
+            bx, by, bw, bh = cv2.boundingRect(m)
+            assert tuple(out[i, 1:]) == (x0 + bx, y0 + by, bw, bh)
+        else:
+            assert tuple(out[i, 1:]) == (x0, y0, x1 - x0, y1 - y0)
+    assert out[3, 0] == 0 and out[0, 0] > 0
 
 
 def _with_vessels(scn, vessels):

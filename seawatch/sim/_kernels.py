@@ -660,6 +660,35 @@ def vessel_poses(st, ids, lengths, t_s, motion, par):
 
 
 @numba.njit(cache=True, nogil=True)
+def label_boxes(label, labs, fboxes, out):
+    """Visible pixels of each drawn vessel: for ``labs[i]`` within its box ``fboxes[i]`` (x0, y0,
+    x1, y1) of ``label``, ``out[i]`` gets the count of pixels labelled ``labs[i]`` and the tight
+    box (x, y, w, h) around them (what ``cv2.countNonZero`` and ``cv2.boundingRect`` of the mask
+    give; the full box when no pixel is left)."""
+    for i in range(labs.shape[0]):
+        lab = labs[i]
+        x0, y0, x1, y1 = fboxes[i, 0], fboxes[i, 1], fboxes[i, 2], fboxes[i, 3]
+        n = 0
+        bx0, by0, bx1, by1 = x1, y1, x0 - 1, y0 - 1
+        for y in range(y0, y1):
+            for x in range(x0, x1):
+                if label[y, x] == lab:
+                    n += 1
+                    if x < bx0:
+                        bx0 = x
+                    if x > bx1:
+                        bx1 = x
+                    if y < by0:
+                        by0 = y
+                    by1 = y
+        out[i, 0] = n
+        if n:
+            out[i, 1], out[i, 2], out[i, 3], out[i, 4] = bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1
+        else:
+            out[i, 1], out[i, 2], out[i, 3], out[i, 4] = x0, y0, x1 - x0, y1 - y0
+
+
+@numba.njit(cache=True, nogil=True)
 def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, face_idx, face_nvert, face_part,
                 part_centres, cam_local, sun_local, out):
     """Draw one vessel's faces into a canvas of its own, composite it into ``img`` and write

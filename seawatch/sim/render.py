@@ -41,6 +41,7 @@ from seawatch.sim._kernels import (
     draw_wake,
     first_water_rows,
     grid_layouts,
+    label_boxes,
     last_dry_row,
     sea_maps_grid,
     sea_shade_grid,
@@ -419,11 +420,12 @@ class Renderer:
         b1 = min(H, (int(rows_c[-1]) + 1) * s) if len(rows_c) else H
         m0 = min(r0_, b0)
         # below the band every pixel is water: the panorama coordinates are needed only down to b1
-        hi_map = np.ascontiguousarray(_upsample_grid(hi2, gw, s, (b1, W), m0)) if m0 < b1 else np.zeros((0, W, 2), np.float32)
+        # (rows with a stride: a window into the upsampled grid, no copy; OpenCV and the kernels take it)
+        hi_map = _upsample_grid(hi2, gw, s, (b1, W), m0) if m0 < b1 else np.zeros((0, W, 2), np.float32)
         band_maps = None
         c0 = c1 = 0  # rows that the band covers entirely (they need no coarse layer)
         if b1 > b0:
-            band_maps = hi_map[b0 - m0:b1 - m0]  # (C-contiguous rows)
+            band_maps = hi_map[b0 - m0:b1 - m0]
             # rows whose every pixel has its 4 taps inside the band: pixel row y interpolates the
             # grid rows i = (y + 0.5) / s + 0.5 and i + 1 (a convex combination), so it is covered
             # when every sample of both rows lies inside (with a margin for rounding)
@@ -494,7 +496,7 @@ class Renderer:
         half-resolution rows ``k0 ..`` (shape ``(k1 - k0, W / 2, C)``)."""
         hh = mlo.shape[0]
         k0, k1 = max(0, y0 // 2 - 1), min(hh, (y1 + 1) // 2 + 1)
-        lo = cv2.remap(self._lo_src, np.ascontiguousarray(mlo[k0:k1]), None, cv2.INTER_LINEAR,
+        lo = cv2.remap(self._lo_src, mlo[k0:k1], None, cv2.INTER_LINEAR,
                        dst=self._buf("lo_half", (k1 - k0, mlo.shape[1], self._lo_src.shape[2] if self._lo_src.ndim == 3 else 1),
                                      np.uint8).reshape((k1 - k0, mlo.shape[1]) + self._lo_src.shape[2:]),
                        borderMode=cv2.BORDER_REPLICATE)
@@ -837,16 +839,14 @@ class Renderer:
         label = np.zeros((self.H, self.W), np.uint8)
         rows = []
         if draw_vessels and len(self.world.vessels):
-            for k, full_px, fbox, depth in self._draw_vessels(img, label, t_s, cam):
+            drawn = self._draw_vessels(img, label, t_s, cam)
+            vis = np.empty((len(drawn), 5), np.int64)  # visible pixels and their box, per vessel
+            label_boxes(label, np.array([d[0] + 1 for d in drawn], np.int64),
+                        np.array([d[2] for d in drawn], np.int64).reshape(-1, 4), vis)
+            for (k, full_px, fbox, depth), (vpx, bx, by, bw, bh) in zip(drawn, vis.tolist()):
                 x0, y0, x1, y1 = fbox
-                vm = (label[y0:y1, x0:x1] == k + 1).astype(np.uint8)
-                vpx = int(cv2.countNonZero(vm))
-                if vpx:
-                    bx, by, bw, bh = cv2.boundingRect(vm)
-                    box = (x0 + bx, y0 + by, bw, bh)
-                else:
-                    box = (x0, y0, x1 - x0, y1 - y0)
-                rows.append((k, box, (x0, y0, x1 - x0, y1 - y0), vpx / max(full_px, 1), vpx, full_px, depth))
+                rows.append((k, (bx, by, bw, bh), (x0, y0, x1 - x0, y1 - y0), vpx / max(full_px, 1), vpx, full_px,
+                             depth))
         img = self._finish(img, frame_seed)
         rows.sort(key=lambda r: r[0])
         return RenderResult(
