@@ -179,6 +179,7 @@ class Scenario:
         )
         self._last: tuple[int, RenderResult] | None = None
         self._fixed_cam: CameraModel | None = None
+        self._ptz_last: tuple[int, PTZState] | None = None  # (frame, its commanded state)
         self._ais: AISStream | None = None
         self._radar = None
 
@@ -202,7 +203,12 @@ class Scenario:
 
     def ptz_at(self, i: int) -> PTZState:
         """Commanded pan/tilt/zoom of frame ``i`` (what a PTZ controller reports)."""
-        return self.schedule.at(self.time_s(i))
+        last = self._ptz_last
+        if last is not None and last[0] == i:  # (frozen: the state of the frame just asked for)
+            return last[1]
+        ptz = self.schedule.at(self.time_s(i))
+        self._ptz_last = (i, ptz)
+        return ptz
 
     def nominal_pose(self, i: int) -> CameraPose:
         ptz = self.ptz_at(i)
@@ -214,13 +220,15 @@ class Scenario:
             if self._fixed_cam is None:
                 self._fixed_cam = self.camera.with_ptz(self.schedule.at(0.0))
             return self._fixed_cam
-        t = self.time_s(i)
-        cam = self.camera.with_ptz(self.schedule.at(t))
+        ptz = self.ptz_at(i)
+        p = self.camera.pose
+        pan, tilt, roll = ptz.pan_deg, ptz.tilt_deg, p.roll_deg
         if self.shake is not None:
-            dp, dt, dr = self.shake.at(t)
-            p = cam.pose
-            cam = cam.with_pose(pan_deg=(p.pan_deg + dp) % 360.0, tilt_deg=p.tilt_deg + dt, roll_deg=p.roll_deg + dr)
-        return cam
+            dp, dt, dr = self.shake.at(self.time_s(i))
+            pan, tilt, roll = (pan + dp) % 360.0, tilt + dt, roll + dr
+        # (camera.with_ptz then with_pose, in one camera)
+        return CameraModel(self.camera.intrinsics.zoomed(ptz.zoom),
+                           dataclasses.replace(p, pan_deg=pan, tilt_deg=tilt, roll_deg=roll), self.camera.refraction_k)
 
     # ------------------------------------------------------------------------ frames
     def _render(self, i: int) -> RenderResult:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from dataclasses import dataclass
@@ -50,7 +51,7 @@ class PTZSchedule:
             return PTZState(float(t_s), self.pan_deg[0], self.tilt_deg[0], self.zoom[0])
         if t_s >= ts[-1]:
             return PTZState(float(t_s), self.pan_deg[-1] % 360.0, self.tilt_deg[-1], self.zoom[-1])
-        k = int(np.searchsorted(ts, t_s, side="right")) - 1
+        k = bisect.bisect_right(ts, t_s) - 1  # (as np.searchsorted(side='right'), without the array)
         span = ts[k + 1] - ts[k]
         s = 0.0 if span <= 0 else (t_s - ts[k]) / span
         s = s * s * (3 - 2 * s)  # ease in and out
