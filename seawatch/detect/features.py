@@ -448,6 +448,12 @@ class StableFeatureExtractor:
         the velocity gate's reach (``gate_min_px_s`` times the frame interval) of it, so that
         the ratio test compares a boat's keypoint with its neighbours rather than with every
         similar blob in the image.  0: the paper's search.
+    dedup_px : float
+        An unmatched keypoint within this many pixels of an active feature does not become a
+        new feature (not in the paper, where every unmatched keypoint does; stop 14): two
+        features of one point have nearly the same descriptor, so the ratio test then fails
+        for both and neither matches again; on a small boat most keypoints were such
+        duplicates and few features became stable.  0: the paper's rule.
     subpixel_win_px, subpixel_max_px, subpixel_min_eig : int, float, float
         Lucas-Kanade window, how far the refined position may lie from the keypoint, and the
         smallest eigenvalue of the window's gradient matrix (OpenCV's ``minEigThreshold``)
@@ -497,7 +503,7 @@ class StableFeatureExtractor:
         band_describe_upscaled: bool = False,
         band_min_size_px: float = 0.0,
         guided_min_quality: float = 0.25,
-        dedup_px: float = 0.0,
+        dedup_px: float = 3.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
