@@ -877,7 +877,7 @@ class ClusterParams:
     ``relink_undo_drop_alias`` (off) also takes the identity from that cluster's label memory
     (on, it raised sim `pan` seed-0 ID switches from 5 to 14 in the stop-13 bench).
     Stop 14: ``sky_margin_px`` (5; 0 off): with a horizon, a report whose box bottom lies more
-    than this (times the zoom) above it is not reported (a cloud); ``box_dv_px_s`` (2.5; 0 off):
+    than this (times the zoom) above it is not reported (a cloud); ``box_dv_px_s`` (1.5; 0 off):
     a cluster's box is drawn around the members whose velocity relative to the scene is within
     this of the cluster's median (clusters of three or more; a feature of the coast or another
     boat linked in stays in the cluster but not in its box); ``merge_keep`` (0.5; 0 off):
@@ -918,7 +918,7 @@ class ClusterParams:
     relink_min_s: float = 0.4
     relink_undo_drop_alias: bool = False
     sky_margin_px: float = 5.0
-    box_dv_px_s: float = 2.5
+    box_dv_px_s: float = 1.5
     merge_keep: float = 0.5
 
 
