@@ -343,7 +343,10 @@ class Renderer:
         v = self._views.get(key)
         if v is not None:
             self._views.move_to_end(key)
-            if v.sea_cache is None:  # a steady view: keep its animated sea frames
+            if v.bg is None:  # its background became the frame that built it (:meth:`_sea_image`):
+                v = self._views[key] = self._build_view(cam)  # build it again, as a steady view
+                v.sea_cache = {}
+            elif v.sea_cache is None:  # a steady view: keep its animated sea frames
                 v.sea_cache = {}
             return v
         v = self._build_view(cam)
@@ -722,8 +725,11 @@ class Renderer:
                 img[r0:] = hit
                 return img
         ys = view.half_y0
-        img = np.empty_like(view.bg)
-        img[:ys] = view.bg[:ys]
+        if cache is None:  # the view's first frame (a moving camera's only one): its background
+            img, view.bg = view.bg, None  # becomes the frame, no copy (a later hit rebuilds the view)
+        else:
+            img = np.empty_like(view.bg)
+            img[:ys] = view.bg[:ys]
         tile = self.waves.frame(t_s)
         if r0 < ys:  # full resolution down to the half-resolution rows
             sea_waves_grid(img[:ys], r0, view.sea_grid, _GRID_PX, tile, self._gain, self._glint_col,
