@@ -201,7 +201,11 @@ def test_grid_layouts_match_stack_and_interp(C):
     lut = np.floor(rng.uniform(0, 255, (n, C))).astype(np.float32)
     lo2, hi2 = np.empty((13, 17, 2), np.float32), np.empty((13, 17, 2), np.float32)
     sea4, base = np.empty((13, 17, 4), np.float32), np.empty((13, 17, 4), np.float32)
-    grid_layouts(g, lut, lo2, hi2, sea4, base)
+    g[2] = rng.uniform(-1, 121, (13, 17))  # sharp band 120 x 90: rows inside it and rows not
+    g[3] = rng.uniform(-1, 91, (13, 17))
+    g[2:4, 4:7] = rng.uniform(1, 80, (2, 3, 17))
+    stats = np.empty((13, 4))
+    grid_layouts(g, lut, 120.0, 90.0, lo2, hi2, sea4, base, stats)
     assert np.array_equal(lo2, np.stack([g[0], g[1]], -1).astype(np.float32), equal_nan=True)
     assert np.array_equal(hi2, np.stack([g[2], g[3]], -1).astype(np.float32))
     assert np.array_equal(sea4, np.stack([g[4], g[5], g[6], g[7]], -1).astype(np.float32))
@@ -210,6 +214,12 @@ def test_grid_layouts_match_stack_and_interp(C):
     ref = np.stack(ref + [g[4]] * (4 - C), -1).astype(np.float32)
     assert np.array_equal(base, ref, equal_nan=True)
     assert (base[..., 0] == lut[0, 0]).any() and (base[..., 0] == lut[-1, 0]).any()  # both clamps hit
+    hix, hiy = g[2], g[3]
+    inside = ((hix >= 0.05) & (hix <= 120 - 2.05) & (hiy >= 0.05) & (hiy <= 90 - 2.05)).all(axis=1)
+    assert inside.any() and not inside.all()
+    assert np.array_equal(stats[:, 0], hiy.max(axis=1)) and np.array_equal(stats[:, 1], hiy.min(axis=1))
+    assert np.array_equal(stats[:, 2] > 0, inside)
+    assert np.array_equal(stats[:, 3], np.hypot(np.diff(g[4], axis=1), np.diff(g[5], axis=1)).max(axis=1))
 
 
 def test_trajectory_states_match_trajectory_state():

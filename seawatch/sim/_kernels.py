@@ -557,16 +557,30 @@ def view_grid(az, el, ref_az, pano, height_m, r_eff_m, sea, inv, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def grid_layouts(g, lut, lo2, hi2, sea4, base):
+def grid_layouts(g, lut, hw_hi, hh_hi, lo2, hi2, sea4, base, rows):
     """The interleaved float32 grids that a view is built from, out of :func:`view_grid`'s
     output ``g`` (9, gh, gw), in one pass: ``lo2`` and ``hi2`` (gh, gw, 2), the coarse and sharp
     panorama coordinates; ``sea4`` (gh, gw, 4), the wave texels, contrast and glint; ``base``
     (gh, gw, 4), the sea base colour, ``lut`` (rows, C) interpolated at the coarse panorama row
     ``loy`` as ``np.interp`` does (clamped at both ends), its channels after C filled with the
-    texel ``tx``."""
+    texel ``tx``; ``rows`` (gh, 4), per grid row: the largest and the smallest sharp-band row
+    ``hiy``, 1.0 when every sample lies inside the sharp band (``hw_hi`` x ``hh_hi`` pixels,
+    0.05 px of margin, 2.05 at the far edges) else 0.0, and the largest step in wave texels
+    between neighbouring samples (``hypot`` of the ``tx``, ``ty`` differences)."""
     gh, gw = g.shape[1], g.shape[2]
     n, C = lut.shape
     for i in range(gh):
+        hmax, hmin, step = g[3, i, 0], g[3, i, 0], 0.0
+        inside = True
+        for j in range(gw):
+            hx, hy = g[2, i, j], g[3, i, j]
+            hmax = max(hmax, hy)
+            hmin = min(hmin, hy)
+            if not (hx >= 0.05 and hx <= hw_hi - 2.05 and hy >= 0.05 and hy <= hh_hi - 2.05):
+                inside = False
+            if j + 1 < gw:
+                step = max(step, math.hypot(g[4, i, j + 1] - g[4, i, j], g[5, i, j + 1] - g[5, i, j]))
+        rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3] = hmax, hmin, 1.0 if inside else 0.0, step
         for j in range(gw):
             lo2[i, j, 0] = g[0, i, j]
             lo2[i, j, 1] = g[1, i, j]

@@ -398,12 +398,13 @@ class Renderer:
         pano = self.pano
         f_px = float(cam.intrinsics.fy)
         g = self._grid_params(az, el, f_px, cam.r_eff_m)
-        lox, loy, hix, hiy, tx, ty, amp, gl, _ = g
         # the same grids interleaved as float32 (coarse and sharp panorama maps, sea parameters)
         # and the sea base colour at each sample, in one compiled pass
         lo2, hi2 = np.empty((gh, gw, 2), np.float32), np.empty((gh, gw, 2), np.float32)
         sea4, base4 = np.empty((gh, gw, 4), np.float32), np.empty((gh, gw, 4), np.float32)
-        grid_layouts(g, self._sea_lut, lo2, hi2, sea4, base4)
+        stats = np.empty((gh, 4))  # per grid row: hiy max, hiy min, all inside the band, texel step
+        hh_hi, hw_hi = pano.hi.shape[:2]
+        grid_layouts(g, self._sea_lut, float(hw_hi), float(hh_hi), lo2, hi2, sea4, base4, stats)
 
         view = _View()
         view.sea_base = None
@@ -411,8 +412,7 @@ class Renderer:
         view.sea_cache = None
         # the sharp band around the horizon and the coast, at full resolution; rows above it hold
         # neither water nor coast, so the full-resolution maps start at the band (or the water)
-        hmax = hiy.max(axis=1)
-        hmin = hiy.min(axis=1)
+        hmax, hmin = stats[:, 0], stats[:, 1]
         # pairs of consecutive coarse rows (k, k+1) whose span touches the band
         pair_hi = np.maximum(hmax[:-1], hmax[1:])
         pair_lo = np.minimum(hmin[:-1], hmin[1:])
@@ -432,8 +432,7 @@ class Renderer:
             # rows whose every pixel has its 4 taps inside the band: pixel row y interpolates the
             # grid rows i = (y + 0.5) / s + 0.5 and i + 1 (a convex combination), so it is covered
             # when every sample of both rows lies inside (with a margin for rounding)
-            hh_hi, hw_hi = pano.hi.shape[:2]
-            inside = ((hix >= 0.05) & (hix <= hw_hi - 2.05) & (hiy >= 0.05) & (hiy <= hh_hi - 2.05)).all(axis=1)
+            inside = stats[:, 2] > 0  # (grid_layouts)
             pair_ok = inside[:-1] & inside[1:]
             ys = np.arange(b0, b1)
             full = pair_ok[np.minimum(((ys + 0.5) / s + 0.5).astype(np.int64), len(pair_ok) - 1)]
@@ -474,7 +473,7 @@ class Renderer:
             view.sea_base = base4 if ys < H else None
             # half width from the first pixel row below which every grid row has at most half a
             # texel per pixel across (pixel row y interpolates grid rows i, i + 1 from the top)
-            step = np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)).max(axis=1) / s
+            step = stats[:, 3] / s  # (grid_layouts)
             fine = np.logical_and.accumulate((step <= _LOD_TEXELS_PER_PX)[::-1])[::-1]
             k = int(np.argmax(fine)) if fine.any() else len(fine)
             view.lod_y = min(H, max(ys, int(math.ceil((k - 0.5) * s - 0.5))))
