@@ -703,6 +703,23 @@ def label_boxes(label, labs, fboxes, out):
 
 
 @numba.njit(cache=True, nogil=True)
+def pose_vertices(x, y, z, owner, par, motion, E, N, Z):
+    """World positions ``E, N, Z`` of model vertices ``x, y, z`` (vessel frame) of vessels
+    ``owner``, posed by :func:`vessel_poses`' ``par``: with ``motion`` rolled about the keel,
+    then pitched, then placed at the vessel's position and course and raised by its heave."""
+    for i in range(x.shape[0]):
+        k = owner[i]
+        xi, yi, zi = x[i], y[i], z[i]
+        if motion:
+            cr, sr, cp, sp = par[6, k], par[7, k], par[8, k], par[9, k]
+            yi, zi = yi * cr - zi * sr, yi * sr + zi * cr
+            xi, zi = xi * cp - zi * sp, xi * sp + zi * cp
+        E[i] = par[0, k] + xi * par[2, k] + yi * par[4, k]
+        N[i] = par[1, k] + xi * par[3, k] + yi * par[5, k]
+        Z[i] = zi + par[10, k]
+
+
+@numba.njit(cache=True, nogil=True)
 def draw_vessel(img, label, lab, uu, vv, normals, centres, base_cols, shade, face_idx, face_nvert, face_part,
                 part_centres, cam_local, sun_local, out):
     """Draw one vessel's faces into a canvas of its own, composite it into ``img`` and write

@@ -43,6 +43,7 @@ from seawatch.sim._kernels import (
     grid_layouts,
     label_boxes,
     last_dry_row,
+    pose_vertices,
     sea_maps_grid,
     sea_shade_grid,
     sea_waves_grid,
@@ -696,11 +697,9 @@ class Renderer:
         cols = par.T.tolist()
         stl = st.tolist()
         poses = [(p[0], p[1], q[2], q[3], (p[2], p[3]), (p[4], p[5]), p[11], p[12], p[10]) for p, q in zip(cols, stl)]
-        e, n, f0, f1, p0, p1, cr, sr, cp, sp, heave = par[:11, owner]
-        if self.options.vessel_motion:  # the vessels' attitude (roll about the keel, then pitch)
-            y, z = y * cr - z * sr, y * sr + z * cr
-            x, z = x * cp - z * sp, x * sp + z * cp
-        return e + x * f0 + y * p0, n + x * f1 + y * p1, z + heave, bounds, poses
+        E, N, Z = np.empty(len(x)), np.empty(len(x)), np.empty(len(x))
+        pose_vertices(x, y, z, owner, par, bool(self.options.vessel_motion), E, N, Z)  # (attitude, then place)
+        return E, N, Z, bounds, poses
 
     def _to_cam(self, e, n):
         if self.world_to_camera is None:
