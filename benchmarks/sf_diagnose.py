@@ -8,13 +8,20 @@ the scenario's camera model, so with the water steps) over one simulator scenari
   box has IoU > 0.3 with it ("found"), the mean IoU there, the median number of stable and of
   active features inside its box, and how many identities covered it;
 * reported boxes that lie on no boat (IoU < 0.1 with every boat), per frame;
-* mean METE per time segment, with the mean zoom.
+* mean METE per time segment, with the mean zoom;
+* with ``--breakdown``, METE split into the matched boats' IoU loss, the missed boats and the
+  reports beyond the boats' count, per boat and per segment, and the matched boxes' bias;
+* with ``--switches``, every identity switch and where the identities came from.
+
+``--speed-pairs N`` instead times the default stage against the stage with ``--params`` (CPU
+time, N alternating pairs, 250 frames at 640x480).
 
 Uses only the simulator (no data under ``../shared``).  Tuning runs use seeds 1 and 2; the
 bench reports seed 0.  Example::
 
     .venv/bin/python benchmarks/sf_diagnose.py pan 1
     .venv/bin/python benchmarks/sf_diagnose.py ir 2 --params '{"horizon": "off", "ext": {"guided_px": 0}}'
+    .venv/bin/python benchmarks/sf_diagnose.py pan 0 --speed-pairs 4 --params '{"merge_keep": 0}'
 """
 
 from __future__ import annotations
@@ -42,6 +49,10 @@ def _parse(argv):
                     help="split METE into its causes: per boat, the IoU lost where it is matched and the frames it is "
                          "missed; reports on no boat beyond the boats' count; and the matched boxes' bias (size, offset) "
                          "against the ground-truth boxes")
+    ap.add_argument("--speed-pairs", type=int, default=0, metavar="N",
+                    help="instead: time the default stage against the stage with --params, N alternating "
+                         "pairs, CPU time, on 250 frames of the scenario rendered at 640x480 and 25 frames/s "
+                         "(one OpenCV thread; set OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1)")
     ap.add_argument("--switches", action="store_true",
                     help="list every identity switch: the boat, the identity it had and the new one, whether the "
                          "old one is still reported (and on what), and how old the new one is")
@@ -69,9 +80,11 @@ def main(argv=None) -> int:
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
 
     cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed, duration_s=args.duration_s)
     ext_kw = kw.pop("ext", {})
     horizon = kw.pop("horizon", "camera")
+    if args.speed_pairs > 0:
+        return _speed_pairs(args, ext_kw, kw, horizon)
+    scn = make_scenario(args.scenario, seed=args.seed, duration_s=args.duration_s)
     trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps, **ext_kw), ClusterParams(**kw),
                                camera=scn.camera, horizon=horizon)
     gt, pred, feats, zooms = {}, {}, {}, {}
@@ -136,6 +149,34 @@ def main(argv=None) -> int:
         _print_breakdown(gt, pred, frames, kinds, scn.fps, args.segment_s)
     if args.switches:
         _print_switches(gt, pred, frames, kinds, scn.fps)
+    return 0
+
+
+def _speed_pairs(args, ext_kw, kw, horizon) -> int:
+    """CPU time per frame of the default stage and of the stage with ``--params``, alternating
+    which runs first in each pair (the machine's speed drifts from minute to minute)."""
+    from seawatch.detect.features import StableFeatureExtractor
+    from seawatch.sim import make_scenario
+    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
+
+    scn = make_scenario(args.scenario, seed=args.seed, width=640, height=480, fps=25.0, duration_s=10.0)
+    frames = [scn.render(i) for i in range(min(250, scn.n_frames))]
+    cfg = {"default": ({}, {}, "camera"), "--params": (ext_kw, kw, horizon)}
+    ms = {k: [] for k in cfg}
+    for r in range(args.speed_pairs):
+        for k in (("default", "--params") if r % 2 == 0 else ("--params", "default")):
+            e, c, hz = cfg[k]
+            trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=25.0, **e), ClusterParams(**c),
+                                       camera=scn.camera, horizon=hz)
+            c0 = time.process_time()
+            for f in frames:
+                trk.process(f)
+            ms[k].append(1e3 * (time.process_time() - c0) / len(frames))
+    for k, v in ms.items():
+        print(f"{k}: ms/frame {', '.join(f'{x:.1f}' for x in v)}; median {np.median(v):.1f} "
+              f"({1e3 / np.median(v):.1f} frames/s)")
+    ratio = np.array(ms["default"]) / np.array(ms["--params"])
+    print(f"default / --params per pair: {', '.join(f'{x:.3f}' for x in ratio)}; median {np.median(ratio):.3f}")
     return 0
 
 
