@@ -193,6 +193,16 @@ def test_pinhole_kernels_match_the_numpy_formulas(roll):
     # curvature drops far points: the two projections differ there
     assert np.nanmax(np.abs(cam.enu_to_pixel(e, n, up, True)[1] - cam.enu_to_pixel(e, n, up, False)[1])) > 0.1
     u0, v0, d0 = cam.enu_to_pixel(100.0, 2000.0, 0.0)  # scalars in, NumPy scalars out
-    assert np.ndim(u0) == 0 and np.ndim(d0) == 0 and isinstance(float(u0), float)
+    assert all(isinstance(x, np.float64) and not isinstance(x, np.ndarray) for x in (u0, v0, d0))
+    # broadcast (N, 1) x (1, M) and read-only or strided inputs: the same as the NumPy path
+    eb, nb = e[:7, None], n[None, ::37]
+    ro = up[:7, None].copy()
+    ro.setflags(write=False)
+    got, want = cam.enu_to_pixel(eb, nb, ro), ref.enu_to_pixel(eb, nb, ro)
+    assert got[0].shape == (7, len(n[::37]))
+    for a, b in zip(got, want):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9, equal_nan=True)
+    ur = u.T  # (not C-contiguous)
+    np.testing.assert_allclose(cam.pixel_to_azel(ur, v.T)[1], ref.pixel_to_azel(ur, v.T)[1], atol=1e-9)
     az0, el0 = cam.pixel_to_azel(352.0, 288.0)
     assert np.ndim(az0) == 0 and az0 == pytest.approx(float(ref.pixel_to_azel(352.0, 288.0)[0]), abs=1e-9)

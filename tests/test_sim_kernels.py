@@ -272,6 +272,27 @@ def test_label_boxes_match_opencv():
     assert out[3, 0] == 0 and out[0, 0] > 0
 
 
+def test_replaced_trajectory_is_drawn_where_it_now_is():
+    """A vessel whose trajectory is replaced after a frame (twice, so that a freed object's id may
+    come back) is drawn by the same renderer where its new trajectory puts it, as a fresh
+    renderer draws it, and where the ground truth says it is."""
+    import dataclasses as dc
+
+    scn = make_scenario("crossing", seed=0, width=352, height=288, duration_s=4.0, fps=5.0)
+    scn.render(0)
+    vs = scn.renderer.world.vessels
+    for shift in (60.0, 200.0):
+        t = vs[0].trajectory
+        vs[0] = dc.replace(vs[0], trajectory=dc.replace(t, e0_m=t.e0_m + shift), model=vs[0].model)
+    scn._last = None
+    reused = scn.renderer.render(scn.time_s(3), scn.camera_at(3), frame_seed=3)
+    fresh = scn.with_render_options().renderer.render(scn.time_s(3), scn.camera_at(3), frame_seed=3)
+    assert np.array_equal(reused.image, fresh.image) and np.array_equal(reused.boxes, fresh.boxes)
+    gt = scn.ground_truth(3)
+    k = list(gt.ids).index(vs[0].id)
+    assert gt.enu_m[k, 0] == pytest.approx(vs[0].state(scn.time_s(3))[0])
+
+
 def _with_vessels(scn, vessels):
     """``scn`` with another vessel list (same camera, schedule and options)."""
     kw = dict(scn._init_args)

@@ -114,6 +114,12 @@ class Intrinsics:
         return np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1.0]])
 
 
+def _flat(a: np.ndarray) -> np.ndarray:
+    """``a`` as a flat, C-contiguous, writable float64 array for the compiled kernels (a copy only
+    when it is strided, broadcast or read-only: one compiled version of each kernel serves all)."""
+    return np.require(a, np.float64, ["C", "W"]).reshape(-1)
+
+
 def _rotation(pan_deg: float, tilt_deg: float, roll_deg: float) -> np.ndarray:
     """World-from-camera rotation: columns are the camera's x (right), y (down), z (forward) in ENU."""
     p, t, r = np.radians([pan_deg, tilt_deg, roll_deg])
@@ -214,7 +220,7 @@ class CameraModel:
         if not K.dist:  # pinhole: one compiled pass
             u, v = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
             az, el = np.empty(u.shape), np.empty(u.shape)
-            pixel_to_azel_pinhole(np.ascontiguousarray(u).reshape(-1), np.ascontiguousarray(v).reshape(-1), self.R,
+            pixel_to_azel_pinhole(_flat(u), _flat(v), self.R,
                                   float(K.fx), float(K.fy), float(K.cx), float(K.cy), az.reshape(-1), el.reshape(-1))
             return az[()], el[()]  # (NumPy scalars for scalar input, as the ufuncs give)
         w = self.pixel_to_ray(u, v)
@@ -254,8 +260,7 @@ class CameraModel:
         K = self.intrinsics
         if not K.dist:  # pinhole: one compiled pass
             u, v, depth = np.empty(e.shape), np.empty(e.shape), np.empty(e.shape)
-            flat = [np.ascontiguousarray(a).reshape(-1) for a in (e, n, up)]
-            enu_to_pixel_pinhole(*flat, self.R, float(self.pose.height_m),
+            enu_to_pixel_pinhole(_flat(e), _flat(n), _flat(up), self.R, float(self.pose.height_m),
                                  1.0 / (2.0 * self.r_eff_m) if curvature else 0.0, float(K.fx), float(K.fy),
                                  float(K.cx), float(K.cy),
                                  u.reshape(-1), v.reshape(-1), depth.reshape(-1))

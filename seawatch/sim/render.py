@@ -656,9 +656,12 @@ class Renderer:
         """Every vessel's trajectory legs packed for :func:`trajectory_states`, with the vessels'
         ids and lengths (remade when the vessel list changes)."""
         vs = self.world.vessels
-        key = tuple((id(v.trajectory), v.id, v.length_m) for v in vs)
         tab = self.__dict__.get("_traj_tab")
-        if tab is None or tab[0] != key:
+        # (the table keeps the trajectories it was made from and compares them by identity: an id()
+        # alone could be reused by a new trajectory after the old one is freed)
+        if tab is None or len(tab[0]) != len(vs) or any(
+                t is not v.trajectory or i != v.id or L != v.length_m for (t, i, L), v in zip(tab[0], vs)):
+            key = [(v.trajectory, v.id, v.length_m) for v in vs]
             tabs = [v.trajectory._table for v in vs]
             cat = (lambda i: np.concatenate([t[i] for t in tabs]).astype(np.float64)) if vs else (lambda i: np.zeros(0))
             legs = np.concatenate([t[4] for t in tabs]) if vs else np.zeros((0, 3))
@@ -723,9 +726,9 @@ class Renderer:
                 img[r0:] = hit
                 return img
         ys = view.half_y0
-        if cache is None:  # the view's first frame (a moving camera's only one): its background
-            img, view.bg = view.bg, None  # becomes the frame, no copy (a later hit rebuilds the view)
-        else:
+        if cache is None and self.sea_half_res:  # a moving camera's view, at its first (and most often
+            img, view.bg = view.bg, None  # only) frame: the background becomes the frame, no copy; a
+        else:  # later hit rebuilds the view (fixed cameras keep theirs and copy it)
             img = np.empty_like(view.bg)
             img[:ys] = view.bg[:ys]
         tile = self.waves.frame(t_s)

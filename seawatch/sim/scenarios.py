@@ -179,7 +179,7 @@ class Scenario:
         )
         self._last: tuple[int, RenderResult] | None = None
         self._fixed_cam: CameraModel | None = None
-        self._ptz_last: tuple[int, PTZState] | None = None  # (frame, its commanded state)
+        self._ptz_last: tuple | None = None  # (frame, schedule, fps, its commanded state)
         self._ais: AISStream | None = None
         self._radar = None
 
@@ -203,11 +203,11 @@ class Scenario:
 
     def ptz_at(self, i: int) -> PTZState:
         """Commanded pan/tilt/zoom of frame ``i`` (what a PTZ controller reports)."""
-        last = self._ptz_last
-        if last is not None and last[0] == i:  # (frozen: the state of the frame just asked for)
-            return last[1]
+        last = self._ptz_last  # (the frame just asked for, unless the schedule or the rate changed since)
+        if last is not None and last[0] == i and last[1] is self.schedule and last[2] == self.fps:
+            return last[3]
         ptz = self.schedule.at(self.time_s(i))
-        self._ptz_last = (i, ptz)
+        self._ptz_last = (i, self.schedule, self.fps, ptz)
         return ptz
 
     def nominal_pose(self, i: int) -> CameraPose:
@@ -226,7 +226,7 @@ class Scenario:
         if self.shake is not None:
             dp, dt, dr = self.shake.at(self.time_s(i))
             pan, tilt, roll = (pan + dp) % 360.0, tilt + dt, roll + dr
-        # (camera.with_ptz then with_pose, in one camera)
+        # (what camera.with_ptz(ptz).with_pose(...) gives, built once: a CameraModel, never a subclass)
         return CameraModel(self.camera.intrinsics.zoomed(ptz.zoom),
                            dataclasses.replace(p, pan_deg=pan, tilt_deg=tilt, roll_deg=roll), self.camera.refraction_k)
 
