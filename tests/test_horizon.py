@@ -149,3 +149,53 @@ def test_working_widths_are_tried_in_turn():
     # a frame narrower than every working width is used as it is, once
     small, _, _ = boat_scene(3, 200, 160, horizon_px=50.0)
     assert detect_horizon(small, work_width_px=(352, 288)) == detect_horizon(small, work_width_px=0)
+
+
+@pytest.mark.parametrize("w,h,fracs", [(704, 576, (0.08, 0.90)), (1920, 1080, (0.11, 0.90))])
+def test_lines_near_the_top_or_bottom_are_found_by_the_640px_fallback(w, h, fracs):
+    # the pair offsets (up to 30 px) and the 5 zeroed border rows count in working pixels: at
+    # 352 or 288 px wide a line within about 30 working rows of an edge cannot pass (at 1080p,
+    # 15 % of the height); the 640 px fallback (session 13's width) finds it.  (At 1080p a line
+    # at 0.08 H is 29 rows from the top at 640 px too, so 0.11 H is used there.)
+    for seed, frac in zip((0, 1), fracs):
+        img, _, (yl, yr) = boat_scene(seed, w, h, n_boats=2, horizon_px=frac * h, clutter=5)
+        assert detect_horizon(img, fallback_width_px=0) is None  # 352, then 288: lost
+        hz = detect_horizon(img)
+        assert hz is not None and hz.width == w and hz.kind == "sky"
+        assert abs(hz.y_left - yl) <= 3 and abs(hz.y_right - yr) <= 3
+        assert detect_horizon(img, work_width_px=640, fallback_width_px=0) == hz  # the fallback is 640 px
+
+
+def test_fallback_is_tried_only_when_the_working_widths_find_nothing():
+    img, _, _ = boat_scene(3, 704, 576, horizon_px=200.0, tilt_deg=0.5)
+    assert detect_horizon(img) == detect_horizon(img, fallback_width_px=0) is not None
+
+
+@pytest.mark.parametrize("seed,tilt", [(0, 0.0), (1, 0.8), (2, -0.9)])
+def test_line_scales_back_exactly_from_a_pixel_doubled_frame(seed, tilt):
+    # a 352x288 frame repeated x2 on both axes: at the 352 px working width the area average
+    # gives back the small frame exactly, so the line must map by pixel centres,
+    # y_full(X) = (y_small(x) + 0.5) * 2 - 0.5 with x = (X + 0.5) / 2 - 0.5
+    small, _, _ = boat_scene(seed, 352, 288, n_boats=2, horizon_px=100.0, tilt_deg=tilt, clutter=5)
+    big = np.repeat(np.repeat(small, 2, axis=0), 2, axis=1)
+    a, b = detect_horizon(small), detect_horizon(big)
+    assert a is not None and b is not None and b.width == 704 and b.kind == a.kind
+    for X in (0, 703):
+        x = (X + 0.5) / 2 - 0.5
+        assert abs(float(b.row_at(X)) - ((float(a.row_at(x)) + 0.5) * 2 - 0.5)) <= 1e-9
+    if tilt == 0.0:
+        assert abs(b.y_left - ((a.y_left + 0.5) * 2 - 0.5)) <= 0.05  # nearly flat: the end rows alone
+
+
+@pytest.mark.parametrize("seed,tilt,row", [(1, 0.6, 280.0), (2, -0.7, 350.0), (3, 0.3, 420.0)])
+def test_line_at_an_odd_size_is_within_half_a_pixel_of_the_truth(seed, tilt, row):
+    # 1057x793: area averaged over 3 x 3 blocks (the last row and column left out) to 352x264; a
+    # sloped line is fitted to edge pixels on many rows, so it lands within 0.5 px of the truth
+    # at full size (a flat line sits on one row of edge pixels: within half a working pixel, 1.5 px)
+    img, _, (yl, yr) = boat_scene(seed, 1057, 793, n_boats=2, horizon_px=row, tilt_deg=tilt, clutter=5)
+    hz = detect_horizon(img)
+    assert hz is not None and hz.width == 1057
+    assert abs(hz.y_left - yl) <= 0.5 and abs(hz.y_right - yr) <= 0.5
+    img, _, (yl, yr) = boat_scene(0, 1057, 793, n_boats=2, horizon_px=300.0, clutter=5)
+    hz = detect_horizon(img)
+    assert hz is not None and abs(hz.y_left - yl) <= 1.5 and abs(hz.y_right - yr) <= 1.5

@@ -18,7 +18,10 @@ averaging, by an integer factor first), and the line is scaled back.  An upscale
 (a 320x240 video shown at 704x576) spreads the horizon's grey step over several pixels, so its
 Sobel gradient falls under the Canny thresholds at full size; at the working width the step is
 sharp again, and the coarser second width recovers most of the lines that are still too soft at
-the first (on the training and validation frames, see docs/cascade.md).
+the first (on the training and validation frames, see docs/cascade.md).  The pixel constants count
+in working pixels, so near the top or bottom of a wide frame (within about 30 working rows: 15 % of
+a 1080p frame's height at 352 px) no line can pass; when neither width gives a line, the image is
+tried once more at 640 px wide (session 13's width; at its own size when narrower).
 
 The line is then classified: a *water-coast* line has texture above it (coast, quays,
 buildings), a *water-sky* line has none.  :func:`horizon_filter` drops detections whose centre
@@ -122,6 +125,7 @@ def detect_horizon(
     coast_edge_density: float = 0.04,
     max_lines: int = 100,
     work_width_px: int | tuple[int, ...] = (352, 288),
+    fallback_width_px: int = 640,
 ) -> Horizon | None:
     """Find the horizon line in one frame.
 
@@ -154,6 +158,14 @@ def detect_horizon(
         Working widths, tried in turn until one gives a line: an image wider than a working
         width is resized to it (area averaging; the pixel parameters refer to the working
         image), a narrower one is used as it is (once).  0 or () : the image's own size only.
+    fallback_width_px : int
+        Tried last, only when no working width gives a line (0: none): the image resized to this
+        width, or at its own size when narrower (session 13's detector worked at up to 640 px).
+        The pixel constants (5 zeroed border rows, pairs up to 30 px from the line) are counted
+        in working pixels, so at 352 px a line within about 30 working rows of the top or bottom
+        (15 % of a 1920x1080 frame's height) cannot pass; at 640 px the band is about half as
+        wide.  Its area resize is computed from the image itself, not shared with the working
+        widths.
 
     Returns
     -------
@@ -174,38 +186,71 @@ def detect_horizon(
               max_end_diff_px=max_end_diff_px, pair_offsets_px=pair_offsets_px, n_columns=n_columns,
               min_grey_diff=min_grey_diff, min_support=min_support, coast_edge_density=coast_edge_density,
               max_lines=max_lines)
-    # area averaging: OpenCV's INTER_AREA is fast only for integer factors (5-6 ms from 1920x1080 to
-    # 352 px wide against about 1.4 ms for a factor of 5), so the image is first averaged once over
-    # k x k blocks (k: the integer part of the largest working factor; the last < k rows and columns
-    # are left out), and each working width is then area-resized from that small image
-    base, kb = g0, 1
-    smaller = [s for s in sizes if s < w0]
-    if smaller:
-        wmax = max(smaller)
-        k = max(1, min(w0 // wmax, h0 // max(1, int(round(h0 * wmax / w0)))))
-        if k >= 2:
-            base = cv2.resize(g0[: (h0 // k) * k, : (w0 // k) * k], (w0 // k, h0 // k), interpolation=cv2.INTER_AREA)
-            kb = k
-    for s in sizes:
-        if s == w0:
-            g, fx, fy = g0, 1.0, 1.0
-        else:
-            hs = max(1, int(round(h0 * s / w0)))
-            g = base if base.shape == (hs, s) else cv2.resize(base, (s, hs), interpolation=cv2.INTER_AREA)
-            fx, fy = s / (base.shape[1] * kb), hs / (base.shape[0] * kb)
+    for s, base, kb in _working_images(g0, sizes):
+        g, fx, fy = _resize_to(g0, s, base, kb)
         found = _detect_at(g, **kw)
         if found is not None:
-            a, b, kind, support = found
-            # back to the input's pixels (pixel centres scale as (v + 0.5) / f - 0.5); the ends
-            # are at columns 0 and w - 1 of the working image, i.e. at (0.5 / fx - 0.5) and
-            # (w - 0.5) / fx - 0.5 of the input: extend the line to columns 0 and w0 - 1
-            xa, xb = 0.5 / fx - 0.5, (g.shape[1] - 0.5) / fx - 0.5
-            ya, yb = (a + 0.5) / fy - 0.5, (b + 0.5) / fy - 0.5
-            slope = (yb - ya) / (xb - xa) if xb > xa else 0.0
-            y0 = ya - slope * xa
-            y1 = ya + slope * (w0 - 1 - xa)
-            return Horizon(float(y0), float(y1), w0, kind, support)
+            return _scaled_back(found, g.shape[1], fx, fy, w0)
+    fb = int(fallback_width_px)
+    if fb > 0:
+        s = min(fb, w0)
+        if s not in sizes:
+            for s, base, kb in _working_images(g0, [s]):
+                g, fx, fy = _resize_to(g0, s, base, kb)
+                found = _detect_at(g, **kw)
+                if found is not None:
+                    return _scaled_back(found, g.shape[1], fx, fy, w0)
     return None
+
+
+def _working_images(g0: np.ndarray, sizes: list[int]):
+    """Yield ``(width, base, k)`` for each working width in turn: ``base`` is the image averaged
+    over k x k blocks, shared by all the widths (or the image itself, k = 1).
+
+    Area averaging: OpenCV's INTER_AREA is fast only for integer factors (5-6 ms from 1920x1080 to
+    352 px wide against about 1.4 ms for a factor of 5), so the image is first averaged once over
+    k x k blocks (k: the integer part of the largest working factor; the last < k rows and columns
+    are left out), and each working width is then area-resized from that small image.  The base
+    is computed only when the first width narrower than the image is reached.
+    """
+    h0, w0 = g0.shape
+    base, kb = None, 1
+    for s in sizes:
+        if s < w0 and base is None:
+            wmax = max(x for x in sizes if x < w0)
+            k = max(1, min(w0 // wmax, h0 // max(1, int(round(h0 * wmax / w0)))))
+            base, kb = g0, 1
+            if k >= 2:
+                base = cv2.resize(g0[: (h0 // k) * k, : (w0 // k) * k], (w0 // k, h0 // k),
+                                  interpolation=cv2.INTER_AREA)
+                kb = k
+        yield s, (g0 if base is None else base), kb
+
+
+def _resize_to(g0: np.ndarray, s: int, base: np.ndarray, kb: int) -> tuple[np.ndarray, float, float]:
+    """The working image ``s`` px wide and its scale factors (working px per input px)."""
+    h0, w0 = g0.shape
+    if s == w0:
+        return g0, 1.0, 1.0
+    hs = max(1, int(round(h0 * s / w0)))
+    g = base if base.shape == (hs, s) else cv2.resize(base, (s, hs), interpolation=cv2.INTER_AREA)
+    return g, s / (base.shape[1] * kb), hs / (base.shape[0] * kb)
+
+
+def _scaled_back(found: tuple[float, float, str, float], w: int, fx: float, fy: float, w0: int) -> Horizon:
+    """A working-image line back in the input's pixels.
+
+    Pixel centres scale as (v + 0.5) / f - 0.5; the ends are at columns 0 and w - 1 of the
+    working image, i.e. at (0.5 / fx - 0.5) and (w - 0.5) / fx - 0.5 of the input: the line is
+    extended to columns 0 and w0 - 1.
+    """
+    a, b, kind, support = found
+    xa, xb = 0.5 / fx - 0.5, (w - 0.5) / fx - 0.5
+    ya, yb = (a + 0.5) / fy - 0.5, (b + 0.5) / fy - 0.5
+    slope = (yb - ya) / (xb - xa) if xb > xa else 0.0
+    y0 = ya - slope * xa
+    y1 = ya + slope * (w0 - 1 - xa)
+    return Horizon(float(y0), float(y1), w0, kind, support)
 
 
 def _detect_at(g: np.ndarray, canny_low: float, canny_high: float, hough_votes: int,
