@@ -409,3 +409,110 @@ def test_two_clusters_reported_as_one_stay_one_until_they_move_apart():
     # ... unless they now move apart (28 px/s, over the 5 px/s of merge_dv_px_s)
     _, t2 = run(0.5, [[110, 60], [113, 60]], [[0, 20]] * 2)
     assert t2.ids.tolist() == [1, 2]
+
+
+def test_box_members_guards_each_keep_small_clusters_whole():
+    from seawatch.track.feature_clusters import _box_members
+
+    nan = np.nan
+    # cluster 0: four members, only two of known velocity (fewer than three to take a median from)
+    # cluster 1: three members, two of them far from the median (the rest would be fewer than two)
+    # cluster 2: four members, one far from the others: only that one is left out
+    k = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2])
+    vel = np.array([[20, 0], [14, 0], [nan, nan], [nan, nan], [20, 0], [14, 0], [26, 0],
+                    [20, 0], [20, 0], [20, 0], [14, 0]], float)
+    keep = _box_members(k, vel, 3, 2.5)
+    assert keep.tolist() == [True] * 10 + [False]
+
+
+def test_the_sky_margin_scales_with_the_zoom_and_uses_the_lower_end_of_a_sloping_horizon():
+    from seawatch.detect.horizon import Horizon
+
+    hz = Horizon(40.0, 199.0, 240, kind="sky")  # steep: row 105.2 at x 98, 114.5 at x 112
+
+    def reported(ys, zoom):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, sky_margin_px=5.0))
+        _, tr = c.update(snap([[100, ys[0]], [110, ys[1]]], [[20, 0]] * 2, 0.0, 0), horizon=hz, zoom=zoom)
+        return len(tr)
+
+    # box bottom 110: below the line at the box's left end, 4.5 px above it at the right end
+    assert reported((106, 108), 1.0) == 1
+    # box bottom 106: below the left end, 8.5 px above the right (lower) end: a cloud at zoom 1,
+    # kept at zoom 2 (margin 10 px)
+    assert reported((102, 104), 1.0) == 0
+    assert reported((102, 104), 2.0) == 1
+
+
+def _parting(frames, dv_px_s, pan_px=0.0):
+    """Two pairs of features joined in frame 0 (boxes overlapping by 0.27), the second pair
+    moving ``dv_px_s`` faster; the camera pans ``pan_px`` per frame (the snapshot's homography
+    carries the last frame's pixels into this frame's)."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+    out = []
+    for f in range(frames):
+        ax, bx = 130.0 + f * pan_px, 138.0 + 0.1 * dv_px_s * f + f * pan_px
+        h = np.array([[1.0, 0.0, pan_px], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+        xy = [[ax, 60], [ax + 3, 60], [bx, 60], [bx + 3, 60]]
+        v = [[20, 0]] * 2 + [[20 + dv_px_s, 0]] * 2
+        _, tr = c.update(snap(xy, v, 0.1 * f, f, h=h))
+        out.append(tr)
+    return out
+
+
+def test_joined_clusters_drifting_apart_slowly_are_split_once_their_boxes_part():
+    # 3 px/s apart (under merge_dv_px_s 5), the camera panning 2 px per frame: joined while the
+    # boxes touch (gap <= 2 px), two reports once they are more than 2 px apart
+    tr = _parting(60, 3.0, pan_px=-2.0)
+    assert tr[0].ids.tolist() == [1]
+    assert tr[1].ids.tolist() == [1]  # overlap 0.23 < 0.25, kept by the join
+    for f in range(25, 60):  # box gap 0.3 f - 3 px > 2 px from frame 17 on
+        assert len(tr[f]) == 2, f
+    x_pan = 130.0 - 2.0 * 59
+    assert sorted(tr[59].boxes[:, 0].tolist()) == pytest.approx([x_pan - 4, x_pan + 8 + 0.3 * 59 - 4])
+    # the same parting without the join's box condition would stay one report: the last frame's
+    # report (the union) always holds both boxes; at anchor (no relative motion) they stay one
+    tr = _parting(30, 0.0, pan_px=-2.0)
+    assert all(t.ids.tolist() == [1] for t in tr)
+
+
+def test_the_join_follows_the_camera_motion():
+    a = [[100, 60], [103, 60]]
+    v = [[20, 0]] * 4
+
+    def second(pan_px, h_px):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+        c.update(snap(a + [[108, 60], [111, 60]], v, 0.0, 0))
+        h = np.array([[1.0, 0.0, h_px], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+        xy = np.array(a + [[110, 60], [113, 60]], float) + [pan_px, 0.0]
+        _, t2 = c.update(snap(xy, v, 0.1, 1, h=h))
+        return t2
+
+    assert second(30.0, 30.0).ids.tolist() == [1]  # the last report carried 30 px with the pan
+    assert second(30.0, 0.0).ids.tolist() == [1, 2]  # not carried: the boxes lie outside it
+
+
+def test_a_join_does_not_come_back_after_a_gap():
+    a = [[100, 60], [103, 60]]
+    v = [[20, 0]] * 4
+    later = a + [[110, 60], [113, 60]]  # overlap 0.09: joined only by last frame's report
+
+    # frames with no cluster between
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+    _, t0 = c.update(snap(a + [[108, 60], [111, 60]], v, 0.0, 0))
+    assert len(t0) == 1
+    for f in range(1, 11):
+        c.update(snap([[20, 20]], [[20, 0]], 0.1 * f, f, ids=[99]))
+    _, t2 = c.update(snap(later, v, 1.1, 11))
+    assert len(t2) == 2
+    # no frame in between, but 5 s later (a gap in the stream)
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+    c.update(snap(a + [[108, 60], [111, 60]], v, 0.0, 0))
+    c.update(snap(a + [[108, 60], [111, 60]], v, 0.1, 1))
+    _, t2 = c.update(snap(later, v, 5.1, 2))
+    assert len(t2) == 2
+    # the frame just after: still joined
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+    c.update(snap(a + [[108, 60], [111, 60]], v, 0.0, 0))
+    c.update(snap(a + [[108, 60], [111, 60]], v, 0.1, 1))
+    _, t2 = c.update(snap(later, v, 0.2, 2))
+    assert t2.ids.tolist() == [1]

@@ -803,7 +803,7 @@ def _box_members(k, vel, n, max_dv):
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
-                       sticky=None, groups=None):
+                       sticky=None, groups=None, sticky_gap_px=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -812,7 +812,10 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     whose relative velocities differ by at most ``max_dv``, when both are at least ``min_h`` tall
     (parts of one long hull seen large, e.g. the bow and the superstructure of a ship at full
     zoom; small boats side by side are left apart).  ``sticky``: pairs of cluster identities
-    (frozensets) joined whatever their boxes; ``groups`` (a list), when given, receives the
+    (frozensets) joined in the last frame: they stay joined while their boxes of this frame
+    overlap, touch or lie at most ``sticky_gap_px`` apart (in x and in y) and their relative
+    velocities differ by at most ``max_dv`` (``max_dv`` 0: any velocity; an unknown velocity
+    counts as alike); ``groups`` (a list), when given, receives the
     identities joined into each report (a list per report, in the order returned)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
@@ -831,8 +834,9 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
             small = min(a[2] * a[3], b[2] * b[3])
             join = iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small
-            if not join and sticky and any(frozenset((x, y)) in sticky for x in members[i] for y in members[j]):
-                # joined in the last frame: still one object unless they now move apart
+            if (not join and sticky and iw >= -sticky_gap_px and ih >= -sticky_gap_px
+                    and any(frozenset((x, y)) in sticky for x in members[i] for y in members[j])):
+                # joined in the last frame and their boxes still touch: one object unless they move apart
                 dv = np.zeros(2) if sv is None else sv[i] - sv[j]
                 join = not (np.all(np.isfinite(dv)) and np.hypot(dv[0], dv[1]) > max_dv > 0)
             if (not join and rv is not None and min(a[3], b[3]) >= min_h and ih >= 0.5 * min(a[3], b[3]) > 0
@@ -882,7 +886,10 @@ class ClusterParams:
     this of the cluster's median (clusters of three or more; a feature of the coast or another
     boat linked in stays in the cluster but not in its box); ``merge_keep`` (0.5; 0 off):
     clusters reported as one stay one while each box lies by this much inside the last frame's
-    report and they move alike (see :meth:`FeatureClusterer._sticky_pairs`)."""
+    report, their boxes of this frame overlap, touch or lie at most ``merge_keep_gap_px`` (2,
+    times the zoom) apart, and they move alike: relative velocities within ``merge_dv_px_s``
+    (with ``merge_dv_px_s`` 0 the join ignores velocity; an unknown velocity counts as alike; see
+    :meth:`FeatureClusterer._sticky_pairs`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -920,6 +927,7 @@ class ClusterParams:
     sky_margin_px: float = 5.0
     box_dv_px_s: float = 1.5
     merge_keep: float = 0.5
+    merge_keep_gap_px: float = 2.0
 
 
 class FeatureClusterer:
@@ -967,7 +975,9 @@ class FeatureClusterer:
         self._prev_camera = None
         self._zoom = 1.0
         self._horizon = None
-        self._merged: list = []  # (cluster identities, box) of last frame's reports joined from several clusters
+        self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
+        self._merged_t = float("nan")  # the time of the frame that made _merged
+        self._dts: list = []  # the last frame intervals (s), for the age limit of _merged
 
     def reset(self) -> None:
         self.graph.reset()
@@ -980,10 +990,16 @@ class FeatureClusterer:
         camera motion (not in the paper: two clusters on one long hull at full zoom, whose grown
         boxes overlap in one frame and not in the next, would otherwise be one report and then
         two, the identity going back and forth between them).  A cluster belongs to a last
-        frame's report when at least a quarter of its features that were there were in it
-        (cluster identities change as the clusters merge and split)."""
+        frame's report when at least a quarter of its current features were in it (cluster
+        identities change as the clusters merge and split).  Only the frame just before counts:
+        reports made more than 1.5 typical frame intervals back (the median of the last nine)
+        are dropped.  The pairs found here stay joined only while their boxes of this frame
+        still touch (``merge_keep_gap_px``, see :func:`_merge_overlapping`)."""
         out = set()
         if not self._merged or len(cids) < 2:
+            return out
+        if self._dts and not snap.t_s - self._merged_t <= 1.5 * float(np.median(self._dts)) + 1e-9:
+            self._merged = []  # stale: not made in the frame just before
             return out
         h = np.asarray(snap.homography, np.float64)
         for fids, pb in self._merged:
@@ -1245,7 +1261,11 @@ class FeatureClusterer:
         p = self.params
         n = len(cids)
         t, fi = snap.t_s, snap.frame_index
+        dts = float(getattr(snap, "dt_s", float("nan")))
+        if np.isfinite(dts) and dts > 0:
+            self._dts = (self._dts + [dts])[-9:]
         if n == 0:
+            self._merged = []
             if p.relink_s > 0:
                 self._relink(snap, cids, np.zeros((0, 4)))
             return (Detections.empty(t, fi, self.source, self.camera_id),
@@ -1330,8 +1350,9 @@ class FeatureClusterer:
             groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
-                                                         sticky, groups)
+                                                         sticky, groups, p.merge_keep_gap_px * self._zoom)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
+            self._merged_t = t
         else:
             self._merged = []
         if p.relink_s > 0:
