@@ -516,3 +516,20 @@ def test_a_join_does_not_come_back_after_a_gap():
     c.update(snap(a + [[108, 60], [111, 60]], v, 0.1, 1))
     _, t2 = c.update(snap(later, v, 0.2, 2))
     assert t2.ids.tolist() == [1]
+
+
+def test_box_rule_threshold_can_follow_the_velocity_noise():
+    # the member 6 px/s off the median is left out at 2.5 px/s, kept when the threshold is
+    # 2 x a velocity noise of 4 px/s (8 px/s)
+    xy = [[100, 60], [110, 62], [120, 61], [100, 100]]
+    vel = [[20, 0], [20, 0], [20, 0], [14, 0]]
+
+    def box(k):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, box_dv_noise_k=k))
+        s = dataclasses.replace(snap(xy, vel, 0.0, 0), noise_px_s=4.0)
+        _, tr = c.update(s)
+        return tr.boxes[0].tolist()
+
+    assert box(0.0) == pytest.approx([98, 58, 24, 6])
+    assert box(2.0) == pytest.approx([98, 58, 24, 44])
+    assert box(0.5) == pytest.approx([98, 58, 24, 6])  # 2 px/s < 2.5: the fixed threshold holds

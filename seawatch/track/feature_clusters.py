@@ -884,7 +884,8 @@ class ClusterParams:
     than this (times the zoom) above it is not reported (a cloud); ``box_dv_px_s`` (1.5; 0 off):
     a cluster's box is drawn around the members whose velocity relative to the scene is within
     this of the cluster's median (clusters of three or more; a feature of the coast or another
-    boat linked in stays in the cluster but not in its box); ``merge_keep`` (0.5; 0 off):
+    boat linked in stays in the cluster but not in its box), or within ``box_dv_noise_k`` (0:
+    off) times the running estimate of the velocity noise (``noise_px_s``) where that is larger; ``merge_keep`` (0.5; 0 off):
     clusters reported as one stay one while each box lies by this much inside the last frame's
     report, their boxes of this frame overlap, touch or lie at most ``merge_keep_gap_px`` (2,
     times the zoom) apart, and they move alike: relative velocities within ``merge_dv_px_s``
@@ -928,6 +929,7 @@ class ClusterParams:
     box_dv_px_s: float = 1.5
     merge_keep: float = 0.5
     merge_keep_gap_px: float = 2.0
+    box_dv_noise_k: float = 0.0
 
 
 class FeatureClusterer:
@@ -1279,7 +1281,10 @@ class FeatureClusterer:
             with np.errstate(invalid="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 fv = np.nanmean(snap.history[m], axis=1)
-            inb = _box_members(k, fv, n, p.box_dv_px_s)
+            dv = p.box_dv_px_s
+            if p.box_dv_noise_k > 0 and np.isfinite(self.noise_px_s):
+                dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
+            inb = _box_members(k, fv, n, dv)
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
             kb, xyb, rb = k, xy, r
