@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from seawatch.train.samples import LabelledImage
-from seawatch.train.scanstats import speed_settings
+from seawatch.train.scanstats import choose_speed_setting, speed_settings
 from seawatch.train.synthetic import boat_scene
 
 V6 = Path(__file__).resolve().parent.parent / "seawatch" / "models" / "boat_cascade_v6.xml"
@@ -33,3 +33,16 @@ def test_speed_rule_chooses_the_best_validation_score_among_the_fast_enough():
     r2 = speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=1e9, size=(352, 288), passes=1,
                         log=lambda *a: None)
     assert r2["chosen"] is None
+
+
+def test_speed_rule_picks_the_best_score_at_or_above_the_target_not_the_fastest():
+    rows = [{"scale_factor": 1.1, "score": 0.80, "fps": 22.0},
+            {"scale_factor": 1.2, "score": 0.70, "fps": 35.0},
+            {"scale_factor": 1.3, "score": 0.73, "fps": 43.0},
+            {"scale_factor": 1.4, "score": 0.65, "fps": 50.0},
+            {"scale_factor": 1.5, "score": 0.70, "fps": 54.0}]
+    assert choose_speed_setting(rows, 40.0)["scale_factor"] == 1.3  # not 1.5 (fastest), not 1.1 (best)
+    assert choose_speed_setting(rows, 50.0)["scale_factor"] == 1.5  # 50.0 itself reaches the target
+    assert choose_speed_setting(rows, 30.0)["scale_factor"] == 1.3
+    assert choose_speed_setting(rows, 0.0)["scale_factor"] == 1.1
+    assert choose_speed_setting(rows, 54.01) is None

@@ -10,8 +10,8 @@ Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_tra
 * :func:`speed_compare`: CPU time per frame of models and grids of window positions on 20
   MarDCT training frames resized to 704x576;
 * :func:`horizon_check`: how often the horizon detector finds a line at each working width, on the
-  images at their own size and resized to 704x576, how often it agrees with the full-size line, and
-  how many annotated boats its filter would drop;
+  images at their own size and resized to 704x576, how often it agrees with the full-size line
+  (position and water-sky / water-coast kind), and how many annotated boats its filter would drop;
 * :func:`speed_settings`: session 14's rule for speed settings (docs/cascade.md): per scale factor
   the best settings on the 14 MarDCT validation frames, their speed at 704x576 on the MarDCT
   training and validation frames, and the choice.
@@ -31,7 +31,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "horizon_check"]
+__all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "choose_speed_setting",
+           "horizon_check"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -133,19 +134,11 @@ def speed_compare(models, images, size=(704, 576), grids=(0, 2), reps: int = 3) 
     positions, on ``images`` resized to ``size`` (each a still: horizon state reset), the
     detectors interleaved frame by frame so that a changing machine load touches them alike."""
     from seawatch.detect.cascade import CascadeDetector
-    from seawatch.train.recipe import _raw_grey
 
     cv2.setNumThreads(1)
     dets = {f"{Path(m).stem}_grid{g}": CascadeDetector(m, grid_step_px=g) for m in models for g in grids}
-    greys = [cv2.resize(_raw_grey(im), size, interpolation=cv2.INTER_LINEAR) for im in images]
-    ts = {k: [] for k in dets}
-    for _ in range(reps):
-        for g in greys:
-            for k, d in dets.items():
-                d.reset()
-                c0 = time.process_time()
-                d.detect_grey(g, 0.0)
-                ts[k].append(time.process_time() - c0)
+    greys = _stills(images, size)
+    ts = {k: [t for p in v for t in p] for k, v in _interleaved_cpu_s(dets, greys, reps).items()}
     return {"size": f"{size[0]}x{size[1]}", "images": len(greys), "reps": reps,
             "cpu_ms_median": {k: round(1000 * float(np.median(v)), 2) for k, v in ts.items()}}
 
@@ -167,7 +160,7 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
     Never MarDCT video2, never the held-out part.
     """
     from seawatch.detect.cascade import CascadeDetector
-    from seawatch.train.recipe import _raw_grey, select_detector_settings
+    from seawatch.train.recipe import select_detector_settings
 
     cv2.setNumThreads(1)
     val = [im for im in parts["val"] if im.source == "mardct"]
@@ -181,22 +174,12 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
             best[sf] = {"scale_factor": sf, "min_neighbors": int(mn), "neighbors_size_exp": float(ex),
                         "score": row["score"], "macro_F1@0.3": row["macro_F1@0.3"], "macro_F1@0.5": row["macro_F1@0.5"]}
     ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
-    greys = [cv2.resize(_raw_grey(im), size, interpolation=cv2.INTER_LINEAR) for im in ims]
+    greys = _stills(ims, size)
     dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
                                 neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
-    ts = {sf: [] for sf in dets}
-    per_pass = {sf: [] for sf in dets}
-    for _ in range(passes):
-        tp = {sf: [] for sf in dets}
-        for g in greys:
-            for sf, d in dets.items():
-                d.reset()
-                c0 = time.process_time()
-                d.detect_grey(g, 0.0)
-                tp[sf].append(time.process_time() - c0)
-        for sf in dets:
-            ts[sf] += tp[sf]
-            per_pass[sf].append(round(1.0 / float(np.median(tp[sf])), 2))
+    tps = _interleaved_cpu_s(dets, greys, passes)
+    ts = {sf: [t for p in v for t in p] for sf, v in tps.items()}
+    per_pass = {sf: [round(1.0 / float(np.median(p)), 2) for p in v] for sf, v in tps.items()}
     rows = []
     for sf, b in sorted(best.items()):
         fps = 1.0 / float(np.median(ts[sf]))
@@ -204,41 +187,84 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
                      "ms_per_frame": round(1000.0 / fps, 3)})
         log(f"  sf {sf:g}: {b['min_neighbors']} / {b['neighbors_size_exp']:g}, validation score {b['score']:.4f}, "
             f"{fps:.1f} frames/s at {size[0]}x{size[1]} (passes {per_pass[sf]})")
-    ok = [r for r in rows if r["fps"] >= target_fps]
-    chosen = max(ok, key=lambda r: r["score"]) if ok else None
+    chosen = choose_speed_setting(rows, target_fps)
     log(f"  chosen: {chosen}")
     return {"rule": "session 14 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
             "speed_frames": len(greys), "passes": passes, "candidates": rows, "chosen": chosen}
 
 
-def horizon_check(images, widths=(640, 320, 352, 384, (352, 288)), size=(704, 576), agree_frac: float = 0.015) -> dict:
+def choose_speed_setting(rows, target_fps: float) -> dict | None:
+    """Step 3 of session 14's rule: among the candidate rows (each with ``"score"``, the validation
+    score, and ``"fps"``) those reaching ``target_fps``, the one with the highest score (the
+    first of equal scores); None when none reaches it.  Not the fastest one."""
+    ok = [r for r in rows if r["fps"] >= target_fps]
+    return max(ok, key=lambda r: r["score"]) if ok else None
+
+
+def _stills(images, size) -> list[np.ndarray]:
+    """The images' grey frames resized to ``size`` (linear), for the speed measurements."""
+    from seawatch.train.recipe import _raw_grey
+
+    return [cv2.resize(_raw_grey(im), size, interpolation=cv2.INTER_LINEAR) for im in images]
+
+
+def _interleaved_cpu_s(dets: dict, greys, passes: int) -> dict:
+    """CPU seconds of each detector on each frame, as stills (state reset before each frame),
+    the detectors interleaved frame by frame, ``passes`` passes: ``{key: [[s per frame] per pass]}``."""
+    out = {k: [] for k in dets}
+    for _ in range(passes):
+        tp = {k: [] for k in dets}
+        for g in greys:
+            for k, d in dets.items():
+                d.reset()
+                c0 = time.process_time()
+                d.detect_grey(g, 0.0)
+                tp[k].append(time.process_time() - c0)
+        for k in dets:
+            out[k].append(tp[k])
+    return out
+
+
+def horizon_check(images, widths=(640, 320, 352, 384, (352, 288), (352, 288, "+640")), size=(704, 576),
+                  agree_frac: float = 0.015) -> dict:
     """The horizon detector at several working widths (``work_width_px`` of
     :func:`seawatch.detect.horizon.detect_horizon`) on labelled images, each at its own size and
     resized to ``size`` (linear): per source, the images with a line, the annotated boats in them
     that :func:`~seawatch.detect.horizon.horizon_filter` would drop, how many lines agree (both
     ends within ``agree_frac`` of the image height) with the line found on the image at its own
-    size by the detector working at full size up to 640 px (session 13's), and the median CPU ms
-    per call."""
+    size by the detector working at full size up to 640 px (session 13's), how many of those
+    have the same kind (water-sky or water-coast), the median and 90th percentile of the larger
+    end difference (px of the image at its own size), and the median CPU ms per call.
+
+    A width entry is an int or a tuple of ints, tried in turn without the 640 px fallback
+    (``fallback_width_px=0``); a tuple ending with ``"+640"`` uses the detector's default
+    fallback (640 px) after its widths."""
     from seawatch.detect.horizon import Horizon, detect_horizon, horizon_filter
     from seawatch.train.recipe import _raw_grey
 
     cv2.setNumThreads(1)
     data = [(im.source, _raw_grey(im), im.boxes) for im in images]
-    ref = [detect_horizon(g, work_width_px=0 if g.shape[1] <= 640 else 640) for _, g, _ in data]
+    ref = [detect_horizon(g, work_width_px=0 if g.shape[1] <= 640 else 640, fallback_width_px=0) for _, g, _ in data]
     out = {}
     for ww in widths:
-        key = ",".join(str(x) for x in ww) if isinstance(ww, tuple) else str(ww)
+        if isinstance(ww, tuple):
+            fb = 640 if ww and ww[-1] == "+640" else 0
+            ww = tuple(int(x) for x in ww if x != "+640")
+            key = ",".join(str(x) for x in ww) + ("+640" if fb else "")
+        else:
+            fb, key = 0, str(ww)
         for sz in ("native", f"{size[0]}x{size[1]}"):
             st: dict = {}
             ts = []
+            ends: dict = {}
             for (src, g, boxes), r0 in zip(data, ref):
                 h0 = g.shape[0]
                 gi = g if sz == "native" else cv2.resize(g, size, interpolation=cv2.INTER_LINEAR)
                 c0 = time.process_time()
-                hz = detect_horizon(gi, work_width_px=ww)
+                hz = detect_horizon(gi, work_width_px=ww, fallback_width_px=fb)
                 ts.append(time.process_time() - c0)
                 d = st.setdefault(src, {"images": 0, "lines": 0, "boats_in_line_images": 0, "boats_dropped": 0,
-                                        "lines_with_reference": 0, "agreeing": 0})
+                                        "lines_with_reference": 0, "agreeing": 0, "same_kind": 0})
                 d["images"] += 1
                 if hz is None:
                     continue
@@ -249,8 +275,13 @@ def horizon_check(images, widths=(640, 320, 352, 384, (352, 288)), size=(704, 57
                 d["boats_dropped"] += int((~horizon_filter(boxes, hz)).sum()) if len(boxes) else 0
                 if r0 is not None:
                     d["lines_with_reference"] += 1
-                    e = max(abs(hz.y_left - r0.y_left), abs(hz.y_right - r0.y_right)) / h0
-                    d["agreeing"] += int(e <= agree_frac)
+                    e_px = max(abs(hz.y_left - r0.y_left), abs(hz.y_right - r0.y_right))
+                    d["agreeing"] += int(e_px / h0 <= agree_frac)
+                    d["same_kind"] += int(hz.kind == r0.kind)
+                    ends.setdefault(src, []).append(e_px)
+            for src, e in ends.items():
+                st[src]["end_diff_px_median"] = round(float(np.median(e)), 2)
+                st[src]["end_diff_px_p90"] = round(float(np.percentile(e, 90)), 2)
             out[f"{key} {sz}"] = {"cpu_ms_median": round(1000 * float(np.median(ts)), 3), **st}
     return out
 
