@@ -449,8 +449,8 @@ class StableFeatureExtractor:
         the ratio test compares a boat's keypoint with its neighbours rather than with every
         similar blob in the image.  0: the paper's search.
     dedup_px : float
-        An unmatched keypoint within this many pixels of an active feature does not become a
-        new feature (not in the paper, where every unmatched keypoint does; stop 14): two
+        An unmatched keypoint closer than this many pixels (strictly) to an active feature does
+        not become a new feature (not in the paper, where every unmatched keypoint does; stop 14): two
         features of one point have nearly the same descriptor, so the ratio test then fails
         for both and neither matches again; on a small boat most keypoints were such
         duplicates and few features became stable.  0: the paper's rule.
