@@ -990,11 +990,10 @@ class Renderer:
         wake_quads(np.ascontiguousarray(st[..., 0]), np.ascontiguousarray(st[..., 1]), np.sin(c), np.cos(c),
                    np.ascontiguousarray(st[:, 0, 3]), np.array([vs[k].length_m for k in ks], float),
                    np.array([vs[k].beam_m for k in ks], float), tau, _WAKE_DECAY, Q, al)
-        rows = [(int(k),) for k in ks]
         ce, cn = self._to_cam(Q[..., 0], Q[..., 1])
         uu, vv, dd = cam.enu_to_pixel(ce, cn, 0.0)
         ok = (dd > 0.5).all(axis=-1)  # (V, q)
-        return {r[0]: (uu[i], vv[i], al[i], ok[i]) for i, r in enumerate(rows)}
+        return {int(k): (uu[i], vv[i], al[i], ok[i]) for i, k in enumerate(ks)}
 
     def _draw_wake(self, img, quads, t_s):
         """Blend one vessel's projected wake quads (from :meth:`_wake_quads`) as foam."""
