@@ -803,7 +803,7 @@ def _box_members(k, vel, n, max_dv):
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
-                       sticky=None, groups=None, sticky_gap_px=0.0):
+                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -813,7 +813,8 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     (parts of one long hull seen large, e.g. the bow and the superstructure of a ship at full
     zoom; small boats side by side are left apart).  ``sticky``: pairs of cluster identities
     (frozensets) joined in the last frame: they stay joined while their boxes of this frame
-    overlap, touch or lie at most ``sticky_gap_px`` apart (in x and in y) and their relative
+    overlap, touch or lie at most ``sticky_gap_px``, or ``sticky_gap_h`` times the taller box's
+    height where that is more, apart (in x and in y) and their relative
     velocities differ by at most ``max_dv`` (``max_dv`` 0: any velocity; an unknown velocity
     counts as alike); ``groups`` (a list), when given, receives the
     identities joined into each report (a list per report, in the order returned)."""
@@ -834,7 +835,8 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
             small = min(a[2] * a[3], b[2] * b[3])
             join = iw > 0 and ih > 0 and small > 0 and iw * ih >= min_overlap * small
-            if (not join and sticky and iw >= -sticky_gap_px and ih >= -sticky_gap_px
+            gap = max(sticky_gap_px, sticky_gap_h * max(a[3], b[3]))
+            if (not join and sticky and iw >= -gap and ih >= -gap
                     and any(frozenset((x, y)) in sticky for x in members[i] for y in members[j])):
                 # joined in the last frame and their boxes still touch: one object unless they move apart
                 dv = np.zeros(2) if sv is None else sv[i] - sv[j]
@@ -929,6 +931,7 @@ class ClusterParams:
     box_dv_px_s: float = 1.5
     merge_keep: float = 0.5
     merge_keep_gap_px: float = 2.0
+    merge_keep_gap_h: float = 0.0
     box_dv_noise_k: float = 0.0
 
 
@@ -1355,7 +1358,8 @@ class FeatureClusterer:
             groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
-                                                         sticky, groups, p.merge_keep_gap_px * self._zoom)
+                                                         sticky, groups, p.merge_keep_gap_px * self._zoom,
+                                                         p.merge_keep_gap_h)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
         else:
