@@ -443,11 +443,12 @@ def test_the_sky_margin_scales_with_the_zoom_and_uses_the_lower_end_of_a_sloping
     assert reported((102, 104), 2.0) == 1
 
 
-def _parting(frames, dv_px_s, pan_px=0.0):
+def _parting(frames, dv_px_s, pan_px=0.0, gap_h=0.0):
     """Two pairs of features joined in frame 0 (boxes overlapping by 0.27), the second pair
     moving ``dv_px_s`` faster; the camera pans ``pan_px`` per frame (the snapshot's homography
     carries the last frame's pixels into this frame's)."""
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5))
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=4.0, box_pad=2.0, merge_keep=0.5,
+                                       merge_keep_gap_px=2.0, merge_keep_gap_h=gap_h))
     out = []
     for f in range(frames):
         ax, bx = 130.0 + f * pan_px, 138.0 + 0.1 * dv_px_s * f + f * pan_px
@@ -469,6 +470,11 @@ def test_joined_clusters_drifting_apart_slowly_are_split_once_their_boxes_part()
         assert len(tr[f]) == 2, f
     x_pan = 130.0 - 2.0 * 59
     assert sorted(tr[59].boxes[:, 0].tolist()) == pytest.approx([x_pan - 4, x_pan + 8 + 0.3 * 59 - 4])
+    # with the gap limit at 2 box heights (16 px; the default) they part from 0.3 f - 3 > 16
+    tr = _parting(90, 3.0, pan_px=-1.0, gap_h=2.0)
+    assert all(t.ids.tolist() == [1] for t in tr[:60])
+    for f in range(70, 90):
+        assert len(tr[f]) == 2, f
     # the same parting without the join's box condition would stay one report: the last frame's
     # report (the union) always holds both boxes; at anchor (no relative motion) they stay one
     tr = _parting(30, 0.0, pan_px=-2.0)

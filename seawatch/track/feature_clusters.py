@@ -890,7 +890,8 @@ class ClusterParams:
     off) times the running estimate of the velocity noise (``noise_px_s``) where that is larger; ``merge_keep`` (0.5; 0 off):
     clusters reported as one stay one while each box lies by this much inside the last frame's
     report, their boxes of this frame overlap, touch or lie at most ``merge_keep_gap_px`` (2,
-    times the zoom) apart, and they move alike: relative velocities within ``merge_dv_px_s``
+    times the zoom) or ``merge_keep_gap_h`` (2) times the taller box's height apart, whichever
+    is more, and they move alike: relative velocities within ``merge_dv_px_s``
     (with ``merge_dv_px_s`` 0 the join ignores velocity; an unknown velocity counts as alike; see
     :meth:`FeatureClusterer._sticky_pairs`)."""
 
@@ -931,7 +932,7 @@ class ClusterParams:
     box_dv_px_s: float = 1.5
     merge_keep: float = 0.5
     merge_keep_gap_px: float = 2.0
-    merge_keep_gap_h: float = 0.0
+    merge_keep_gap_h: float = 2.0
     box_dv_noise_k: float = 0.0
 
 
