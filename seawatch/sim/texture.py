@@ -226,7 +226,10 @@ class Panorama:
     ``lo`` covers the whole visible sphere part at ``ppd_lo``; ``hi`` is a thin, sharp band around
     the horizon and the coast at ``ppd_hi``; both have the same channels (3 EO, 1 IR).
     ``water_top_deg`` gives, for each ``hi`` column, the elevation above which there is no
-    water (the sea horizon, or the coast's water line).
+    water (the sea horizon, or the coast's water line).  A direction at azimuth ``az_rel``
+    (degrees from ``ref_az_deg``) and elevation ``el`` sits at pixel
+    ``((az_rel - az_min) * ppd - 0.5, (top - el) * ppd - 0.5)`` of either panorama, ``top`` being
+    ``el_max`` for ``lo`` and ``band_el_max`` for ``hi`` (what the view kernels compute).
     """
 
     ref_az_deg: float
@@ -243,12 +246,6 @@ class Panorama:
     water_top_deg: np.ndarray
     horizon_el_deg: float
     extras: dict = field(default_factory=dict)
-
-    def lo_xy(self, az_rel, el):
-        return (az_rel - self.az_min) * self.ppd_lo - 0.5, (self.el_max - el) * self.ppd_lo - 0.5
-
-    def hi_xy(self, az_rel, el):
-        return (az_rel - self.az_min) * self.ppd_hi - 0.5, (self.band_el_max - el) * self.ppd_hi - 0.5
 
     def water_top_at(self, az_rel) -> np.ndarray:
         x = np.clip(((np.asarray(az_rel) - self.az_min) * self.ppd_hi).astype(np.int64), 0,
