@@ -28,7 +28,6 @@ import numpy as np
 import pymap3d
 
 from seawatch.camera._kernels import enu_to_pixel_pinhole, pixel_to_azel_pinhole
-
 from seawatch.types import CameraPose, PTZState
 
 __all__ = [
