@@ -158,6 +158,7 @@ class CascadeDetector:
         self.horizon: Horizon | None = None
         self.n_bad_frames = 0
         self.last_windows = np.zeros((0, 4))
+        self._plans: dict = {}  # pyramid plans per detection image size (see _level_plan)
 
     @classmethod
     def from_config(cls, config) -> "CascadeDetector":
@@ -224,18 +225,40 @@ class CascadeDetector:
 
     def _levels(self, dw: int, dh: int):
         """OpenCV's pyramid for a ``dw x dh`` image: (factor, float32 factor, level size, window size)."""
+        return [lv[:4] for lv in self._level_plan(dw, dh)]
+
+    def _level_plan(self, dw: int, dh: int) -> list:
+        """Per pyramid level of a ``dw x dh`` detection image: (factor, float32 factor, level size,
+        window size, grid step, first row not scanned), cached per image size, scale factor and grid.
+
+        The last entry is OpenCV's stripe rule: it splits each level's rows into stripes sized
+        from the first level's width, so with a 2 px grid the last row can fall outside every
+        stripe, and a per-level call must skip it too.
+        """
         p = self.params
-        out = []
+        key = (dw, dh, float(p.scale_factor), int(p.grid_step_px), self.window)
+        plan = self._plans.get(key)
+        if plan is not None:
+            return plan
+        ww, wh = self.window
+        n_stripes = max(1, int(np.ceil((dw + 1 - ww) / 32.0)))
+        plan = []
         f = 1.0
         while True:
-            win = (int(np.rint(self.window[0] * f)), int(np.rint(self.window[1] * f)))
+            win = (int(np.rint(ww * f)), int(np.rint(wh * f)))
             f32 = np.float32(f)
             sz = (int(np.rint(np.float32(dw) / f32)), int(np.rint(np.float32(dh) / f32)))
-            if sz[0] < self.window[0] or sz[1] < self.window[1]:
+            if sz[0] < ww or sz[1] < wh:
                 break
-            out.append((f, f32, sz, win))
+            step = 1 if (f32 >= 2.0 and p.grid_step_px == 0) else 2
+            szw_h = sz[1] + 1 - wh
+            stripe = max((szw_h // step + n_stripes - 1) // n_stripes, 1) * step
+            plan.append((f, f32, sz, win, step, min(n_stripes * stripe, szw_h)))
             f *= p.scale_factor
-        return out
+        if len(self._plans) > 16:
+            self._plans.clear()
+        self._plans[key] = plan
+        return plan
 
     def scan_region_windows(self, img: np.ndarray, row_min_det: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Grouped cascade windows of one detection-scale image, scanning each pyramid level from
@@ -253,16 +276,10 @@ class CascadeDetector:
         p = self.params
         dh, dw = img.shape
         ww, wh = self.window
-        raw = []
-        # OpenCV splits each level's rows into stripes sized from the first level's width; with a
-        # 2 px grid the last row can fall outside every stripe, and a per-level call must skip it too
-        n_stripes = max(1, int(np.ceil((dw + 1 - ww) / 32.0)))
-        for k, (f, f32, sz, win) in enumerate(self._levels(dw, dh)):
+        clf = self.classifier
+        pos, lvl_f, lvl_win = [], [], []
+        for k, (f, f32, sz, win, step, y_end) in enumerate(self._level_plan(dw, dh)):
             y_lo = 0
-            step = 1 if (f32 >= 2.0 and p.grid_step_px == 0) else 2
-            szw_h = sz[1] + 1 - wh
-            stripe = max((szw_h // step + n_stripes - 1) // n_stripes, 1) * step
-            y_end = min(n_stripes * stripe, szw_h)  # rows y < y_end are scanned
             if row_min_det is not None:
                 y_lo = int(np.ceil(max(0.0, float(row_min_det[k])) / float(f32)))
                 y_lo += (-y_lo) % step  # OpenCV's grid starts at row 0
@@ -270,27 +287,40 @@ class CascadeDetector:
                 continue
             lvl = img if sz == (dw, dh) else cv2.resize(img, sz, interpolation=cv2.INTER_LINEAR_EXACT)
             y_last = y_lo + ((y_end - 1 - y_lo) // step) * step  # last row scanned
-            part = lvl[y_lo:y_last + wh]
-            if step == 2 and (part.shape[0] + 1 - wh) % 2 == 1:
-                # one more row, never scanned, so that this call's own stripes reach y_last
-                part = np.concatenate([part, part[-1:]], axis=0)
+            y_stop = y_last + wh
+            if step == 2 and (y_stop - y_lo + 1 - wh) % 2 == 1:
+                # one more row, never scanned (no window of this call starts on it), so that this
+                # call's own stripes reach y_last: the level's next row, or a copy of the last
+                if y_stop < lvl.shape[0]:
+                    part = lvl[y_lo:y_stop + 1]
+                else:
+                    part = np.concatenate([lvl[y_lo:y_stop], lvl[y_stop - 1:y_stop]], axis=0)
+            else:
+                part = lvl[y_lo:y_stop]
             if step == 1:
                 big = np.repeat(np.repeat(part, 2, axis=0), 2, axis=1)
-                r, _ = self.classifier.detectMultiScale2(big, scaleFactor=2.0, minNeighbors=0,
-                                                         minSize=(2 * ww, 2 * wh), maxSize=(2 * ww, 2 * wh))
+                r, _ = clf.detectMultiScale2(big, scaleFactor=2.0, minNeighbors=0,
+                                             minSize=(2 * ww, 2 * wh), maxSize=(2 * ww, 2 * wh))
+                if len(r) == 0:
+                    continue
                 r = np.asarray(r, np.int64).reshape(-1, 4)[:, :2] // 2
             else:
-                r, _ = self.classifier.detectMultiScale2(np.ascontiguousarray(part), scaleFactor=2.0, minNeighbors=0,
-                                                         minSize=(ww, wh), maxSize=(ww, wh))
+                r, _ = clf.detectMultiScale2(np.ascontiguousarray(part), scaleFactor=2.0, minNeighbors=0,
+                                             minSize=(ww, wh), maxSize=(ww, wh))
+                if len(r) == 0:
+                    continue
                 r = np.asarray(r, np.int64).reshape(-1, 4)[:, :2]
             r = r[r[:, 1] <= y_last - y_lo]
             if len(r) == 0:
                 continue
-            xy = np.rint(np.stack([r[:, 0], r[:, 1] + y_lo], axis=1).astype(np.float32) * f32).astype(np.int64)
-            raw.append(np.concatenate([xy, np.tile(np.array(win, np.int64), (len(xy), 1))], axis=1))
-        if not raw:
+            r[:, 1] += y_lo
+            pos.append(r)
+            lvl_f.append(np.full(len(r), f32, np.float32))
+            lvl_win.append(np.repeat(np.array([win], np.int64), len(r), axis=0))
+        if not pos:
             return np.zeros((0, 4)), np.zeros(0)
-        rects = np.concatenate(raw).astype(np.int32)
+        xy = np.rint(np.concatenate(pos).astype(np.float32) * np.concatenate(lvl_f)[:, None]).astype(np.int64)
+        rects = np.concatenate([xy, np.concatenate(lvl_win)], axis=1).astype(np.int32)
         mn = int(p.min_neighbors)
         if mn <= 0:
             return rects.astype(np.float64), np.ones(len(rects))
@@ -316,7 +346,7 @@ class CascadeDetector:
         coast = horizon.kind == "coast"
         reach_box = 0.5 + self.dy_frac + (0.0 if coast else self.ratio_h / 2.0)
         reach = max(reach_box, 0.5 if coast else 1.0) + p.scan_region_margin_win
-        wins_h = np.array([lv[3][1] for lv in self._levels(dw, dh)], np.float64)
+        wins_h = np.array([lv[3][1] for lv in self._level_plan(dw, dh)], np.float64)
         return np.maximum(0.0, top - reach * wins_h)
 
     def detect_grey(self, grey_raw: np.ndarray, t_s: float = 0.0, ir: bool = False
