@@ -4,8 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
+import numpy as np
+
 from seawatch.train.samples import LabelledImage
-from seawatch.train.scanstats import choose_speed_setting, speed_settings
+from seawatch.train.scanstats import (choose_speed_setting, played_cpu_s, played_sequences, played_speed_settings,
+                                      speed_settings)
 from seawatch.train.synthetic import boat_scene
 
 V6 = Path(__file__).resolve().parent.parent / "seawatch" / "models" / "boat_cascade_v6.xml"
@@ -46,3 +50,60 @@ def test_speed_rule_picks_the_best_score_at_or_above_the_target_not_the_fastest(
     assert choose_speed_setting(rows, 30.0)["scale_factor"] == 1.3
     assert choose_speed_setting(rows, 0.0)["scale_factor"] == 1.1
     assert choose_speed_setting(rows, 54.01) is None
+
+
+def _clip_parts():
+    def im(seed, part, group, order):
+        img, boxes, _ = boat_scene(seed, 320, 240, n_boats=2, boat_w_px=(40.0, 90.0), horizon_px=70.0, clutter=5)
+        return LabelledImage(f"{group}_{order}", "mardct", boxes, image=img, group=group, order=float(order))
+    train = [im(10 + k, "t", "a", o) for k, o in enumerate((5, 1, 3))] + [im(20, "t", "b", 7)]
+    return {"train": train, "val": [im(30, "v", "a", 9), im(31, "v", "b", 8)], "heldout": [im(40, "h", "a", 11)]}
+
+
+def test_played_sequences_keep_each_clip_in_temporal_order():
+    parts = _clip_parts()
+    ims = parts["train"] + parts["val"]
+    seqs = played_sequences(ims, size=(176, 144), seq_len=3)
+    # clip a: orders 1, 3, 5, 9 -> [1, 3, 5], [9]; clip b: 7, 8 -> [7, 8]
+    assert [len(q) for q in seqs] == [3, 1, 2]
+    by_order = {im.order: im for im in ims}
+    expect = [[1, 3, 5], [9], [7, 8]]
+    for q, orders in zip(seqs, expect):
+        for img, o in zip(q, orders):
+            assert img.shape[:2] == (144, 176)
+            ref = cv2.resize(by_order[o].image, (176, 144), interpolation=cv2.INTER_LINEAR)
+            assert np.array_equal(img, ref)
+
+
+class _Recorder:
+    def __init__(self, log):
+        self.log = log
+
+    def reset(self):
+        self.log.append("reset")
+
+    def detect(self, frame):
+        self.log.append((frame.index, frame.t_s))
+
+
+def test_played_timing_resets_only_between_sequences_with_video_timestamps():
+    log = []
+    seqs = [[np.zeros((8, 8), np.uint8)] * 3, [np.zeros((8, 8), np.uint8)] * 2]
+    out = played_cpu_s({"a": _Recorder(log)}, seqs, passes=2)
+    assert len(out["a"]) == 2 and [len(p) for p in out["a"]] == [5, 5]
+    one_pass = ["reset", (0, 0.0), (1, 0.04), (2, 0.08), "reset", (0, 0.0), (1, 0.04)]
+    assert log == [(0, 0.0)] + one_pass * 2  # a warm-up call, then the played passes
+
+
+def test_played_rule_needs_the_margin_not_only_the_target():
+    parts = _clip_parts()
+    r = played_speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=0.0, margin_fps=0.0, size=(352, 288),
+                              passes=1, log=lambda *a: None)
+    assert r["speed_frames"] == 6 and sorted(r["sequences"]) == [2, 4]  # never the held-out frame
+    rows = {c["scale_factor"]: c for c in r["candidates"]}
+    assert sorted(rows) == [1.2, 1.5] and all(c["fps"] > 0 for c in rows.values())
+    assert r["chosen"]["score"] == max(c["score"] for c in rows.values())
+    fastest = max(c["fps"] for c in rows.values())
+    r2 = played_speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=0.0, margin_fps=fastest * 100,
+                               size=(352, 288), passes=1, log=lambda *a: None)
+    assert r2["chosen"] is None and r2["margin_fps"] == fastest * 100

@@ -14,7 +14,10 @@ Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_tra
   (position and water-sky / water-coast kind), and how many annotated boats its filter would drop;
 * :func:`speed_settings`: session 14's rule for speed settings (docs/cascade.md): per scale factor
   the best settings on the 14 MarDCT validation frames, their speed at 704x576 on the MarDCT
-  training and validation frames, and the choice.
+  training and validation frames, and the choice;
+* :func:`played_speed_settings`: session 15's rule: the same candidates, their speed on the MarDCT
+  training and validation frames played as video (horizon state kept within a sequence), and the
+  choice with a margin above the target.
 
 Command line::
 
@@ -32,7 +35,7 @@ import cv2
 import numpy as np
 
 __all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "choose_speed_setting",
-           "horizon_check"]
+           "horizon_check", "played_sequences", "played_cpu_s", "played_speed_settings"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -160,19 +163,9 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
     Never MarDCT video2, never the held-out part.
     """
     from seawatch.detect.cascade import CascadeDetector
-    from seawatch.train.recipe import select_detector_settings
 
     cv2.setNumThreads(1)
-    val = [im for im in parts["val"] if im.source == "mardct"]
-    _, table = select_detector_settings(model_xml, val, scale_factors=tuple(scale_factors),
-                                        fixed_min_size_px={"coral": 20.0}, log=log)
-    best = {}
-    for key, row in table.items():
-        sf = float(key.split("_")[0][2:])
-        if sf not in best or row["score"] > best[sf]["score"] + 1e-12:
-            mn, ex = key.split("_")[1][2:], key.split("_")[2][3:]
-            best[sf] = {"scale_factor": sf, "min_neighbors": int(mn), "neighbors_size_exp": float(ex),
-                        "score": row["score"], "macro_F1@0.3": row["macro_F1@0.3"], "macro_F1@0.5": row["macro_F1@0.5"]}
+    best = _best_per_scale_factor(model_xml, parts, scale_factors, log)
     ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
     greys = _stills(ims, size)
     dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
@@ -191,6 +184,124 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
     log(f"  chosen: {chosen}")
     return {"rule": "session 14 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
             "speed_frames": len(greys), "passes": passes, "candidates": rows, "chosen": chosen}
+
+
+def _best_per_scale_factor(model_xml, parts: dict, scale_factors, log) -> dict:
+    """Per scale factor the best ``min_neighbors`` and size exponent on the MarDCT validation
+    frames by session 11's criterion (:func:`seawatch.train.recipe.select_detector_settings`)."""
+    from seawatch.train.recipe import select_detector_settings
+
+    val = [im for im in parts["val"] if im.source == "mardct"]
+    _, table = select_detector_settings(model_xml, val, scale_factors=tuple(scale_factors),
+                                        fixed_min_size_px={"coral": 20.0}, log=log)
+    best = {}
+    for key, row in table.items():
+        sf = float(key.split("_")[0][2:])
+        if sf not in best or row["score"] > best[sf]["score"] + 1e-12:
+            mn, ex = key.split("_")[1][2:], key.split("_")[2][3:]
+            best[sf] = {"scale_factor": sf, "min_neighbors": int(mn), "neighbors_size_exp": float(ex),
+                        "score": row["score"], "macro_F1@0.3": row["macro_F1@0.3"], "macro_F1@0.5": row["macro_F1@0.5"]}
+    return best
+
+
+def played_sequences(images, size=(704, 576), seq_len: int = 20) -> list[list[np.ndarray]]:
+    """Frames played as the detection bench plays its speed frames: each clip's (``group``) frames
+    in temporal order (``order``), cut into sequences of ``seq_len`` frames (a clip's last
+    sequence may be shorter), each frame read in colour and resized to ``size`` (linear)."""
+    from seawatch.detect.filters import to_grey
+
+    groups: dict = {}
+    for im in images:
+        groups.setdefault(im.group, []).append(im)
+    seqs = []
+    for g in sorted(groups):
+        ims = sorted(groups[g], key=lambda im: im.order)
+        for i in range(0, len(ims), seq_len):
+            seq = []
+            for im in ims[i:i + seq_len]:
+                img = im.image if im.image is not None else cv2.imread(str(im.path), cv2.IMREAD_COLOR)
+                if img is None:
+                    raise ValueError(f"cannot read image {im.path}")
+                if img.ndim == 2 or img.dtype != np.uint8:
+                    img = to_grey(img, im.name)
+                seq.append(cv2.resize(img, size, interpolation=cv2.INTER_LINEAR))
+            seqs.append(seq)
+    return seqs
+
+
+def played_cpu_s(dets: dict, seqs, passes: int, fps: float = 25.0) -> dict:
+    """CPU seconds of each detector on each frame of sequences played as video: the horizon state
+    is reset at the start of each sequence and kept within it, frame ``k`` at ``k / fps`` seconds
+    (as the detection bench times its speed frames); the detectors interleaved frame by frame in
+    a rotating order; one warm-up call each first; ``passes`` passes.
+    Returns ``{key: [[s per frame] per pass]}``."""
+    from seawatch.types import Frame
+
+    keys = list(dets)
+    for k in keys:
+        dets[k].detect(Frame(seqs[0][0], 0.0, 0))
+    out = {k: [] for k in keys}
+    n = 0
+    for _ in range(passes):
+        tp = {k: [] for k in keys}
+        for seq in seqs:
+            for k in keys:
+                dets[k].reset()
+            for i, img in enumerate(seq):
+                fr = Frame(img, i / fps, i)
+                r = n % len(keys)
+                n += 1
+                for k in keys[r:] + keys[:r]:
+                    c0 = time.process_time()
+                    dets[k].detect(fr)
+                    tp[k].append(time.process_time() - c0)
+        for k in keys:
+            out[k].append(tp[k])
+    return out
+
+
+def played_speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 1.3, 1.4, 1.5),
+                          target_fps: float = 50.0, margin_fps: float = 55.0, size=(704, 576), passes: int = 3,
+                          seq_len: int = 20, log=print) -> dict:
+    """Session 15's rule for the detector's speed settings (docs/cascade.md, fixed before any of
+    its candidates was scored on MarDCT video2).
+
+    1. Candidates: per scale factor, the best ``min_neighbors`` and size exponent on the MarDCT
+       validation frames by session 11's criterion (the model's grid of window positions).
+    2. Speed: the whole detector (horizon line, cascade with its scan region, filters) on the
+       MarDCT training and validation frames *played* as the bench plays its speed frames
+       (:func:`played_sequences`, :func:`played_cpu_s`: each clip in temporal order, sequences of
+       ``seq_len`` frames at ``k / 25`` s, the horizon state kept within a sequence and reset
+       between them, resized to ``size``); CPU time, one core; candidates interleaved; ``passes``
+       passes; the median over every frame of every pass.
+    3. Chosen: the highest validation score among the candidates reaching ``margin_fps`` (a margin
+       above the target ``target_fps``); None when none does.
+
+    Never MarDCT video2, never the held-out part.
+    """
+    from seawatch.detect.cascade import CascadeDetector
+
+    cv2.setNumThreads(1)
+    best = _best_per_scale_factor(model_xml, parts, scale_factors, log)
+    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    seqs = played_sequences(ims, size, seq_len)
+    dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
+                                neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
+    tps = played_cpu_s(dets, seqs, passes)
+    rows = []
+    for sf, b in sorted(best.items()):
+        allt = [t for p in tps[sf] for t in p]
+        fps = 1.0 / float(np.median(allt))
+        per_pass = [round(1.0 / float(np.median(p)), 2) for p in tps[sf]]
+        rows.append({**b, "fps": round(fps, 2), "fps_per_pass": per_pass, "ms_per_frame": round(1000.0 / fps, 3),
+                     "ms_per_frame_mean": round(1000.0 * float(np.mean(allt)), 3)})
+        log(f"  sf {sf:g}: {b['min_neighbors']} / {b['neighbors_size_exp']:g}, validation score {b['score']:.4f}, "
+            f"{fps:.1f} frames/s played at {size[0]}x{size[1]} (passes {per_pass})")
+    chosen = choose_speed_setting(rows, margin_fps)
+    log(f"  chosen: {chosen}")
+    return {"rule": "session 15 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
+            "margin_fps": margin_fps, "sequences": [len(q) for q in seqs], "speed_frames": sum(len(q) for q in seqs),
+            "passes": passes, "candidates": rows, "chosen": chosen}
 
 
 def choose_speed_setting(rows, target_fps: float) -> dict | None:
@@ -299,7 +410,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--model", type=Path, required=True)
     ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
-    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule (comma-separated)")
+    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule, playedrule (comma-separated)")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
@@ -326,6 +437,9 @@ def main(argv=None) -> int:
         print(json.dumps(res["horizon"], indent=1))
     if "speedrule" in what:
         res["speed_settings"] = speed_settings(a.model, parts)
+    if "playedrule" in what:
+        res["played_speed_settings"] = played_speed_settings(a.model, parts)
+        print(json.dumps(res["played_speed_settings"], indent=1))
     if a.out:
         a.out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
     return 0
