@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 __all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "choose_speed_setting",
-           "horizon_check", "played_sequences", "played_cpu_s", "played_speed_settings"]
+           "horizon_check", "played_sequences", "played_cpu_s", "played_speed_settings", "played_compare"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -207,7 +207,8 @@ def _best_per_scale_factor(model_xml, parts: dict, scale_factors, log) -> dict:
 def played_sequences(images, size=(704, 576), seq_len: int = 20) -> list[list[np.ndarray]]:
     """Frames played as the detection bench plays its speed frames: each clip's (``group``) frames
     in temporal order (``order``), cut into sequences of ``seq_len`` frames (a clip's last
-    sequence may be shorter), each frame read in colour and resized to ``size`` (linear)."""
+    sequence may be shorter), each frame read in colour and resized to ``size`` (linear; None:
+    kept at its own size)."""
     from seawatch.detect.filters import to_grey
 
     groups: dict = {}
@@ -224,7 +225,7 @@ def played_sequences(images, size=(704, 576), seq_len: int = 20) -> list[list[np
                     raise ValueError(f"cannot read image {im.path}")
                 if img.ndim == 2 or img.dtype != np.uint8:
                     img = to_grey(img, im.name)
-                seq.append(cv2.resize(img, size, interpolation=cv2.INTER_LINEAR))
+                seq.append(img if size is None else cv2.resize(img, size, interpolation=cv2.INTER_LINEAR))
             seqs.append(seq)
     return seqs
 
@@ -302,6 +303,80 @@ def played_speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1
     return {"rule": "session 15 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
             "margin_fps": margin_fps, "sequences": [len(q) for q in seqs], "speed_frames": sum(len(q) for q in seqs),
             "passes": passes, "candidates": rows, "chosen": chosen}
+
+
+def played_compare(before_commit: str, model_xml: str | Path, parts: dict, settings: dict | None = None,
+                   sizes=((704, 576), None), passes: int = 3, repo: str | Path | None = None) -> dict:
+    """The detector of ``seawatch/detect/cascade.py`` at ``before_commit`` against today's, on the
+    MarDCT training and validation frames played as the bench plays (:func:`played_sequences`):
+    frames whose boxes, scores or horizon line differ (at ``sizes``; None: each frame's own size),
+    and the paired CPU time at the first size (the two detectors alternating frame by frame, the
+    first of each pair alternating too; ``passes`` passes).  Only ``cascade.py`` is taken from
+    ``before_commit`` (it imports today's filters and horizon modules).  ``settings``:
+    ``{scale_factor: (min_neighbors, size exponent)}``, default the candidates of session 14/15."""
+    import importlib.util
+    import subprocess
+    import sys
+    import tempfile
+
+    from seawatch.detect.cascade import CascadeDetector
+    from seawatch.types import Frame
+
+    cv2.setNumThreads(1)
+    repo = Path(repo) if repo else Path(__file__).resolve().parents[2]
+    src = subprocess.run(["git", "-C", str(repo), "show", f"{before_commit}:seawatch/detect/cascade.py"],
+                         check=True, capture_output=True, text=True).stdout
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "cascade_before.py"
+        path.write_text(src, encoding="utf-8")
+        spec = importlib.util.spec_from_file_location("cascade_before", path)
+        old = importlib.util.module_from_spec(spec)
+        sys.modules["cascade_before"] = old
+        spec.loader.exec_module(old)
+    settings = settings or {1.1: (16, 0.0), 1.2: (6, 0.0), 1.3: (6, 0.0), 1.4: (8, 0.0), 1.5: (4, 0.0)}
+    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    native = played_sequences(ims, size=None, seq_len=20)
+    out = {"before": before_commit, "frames": 0, "differing_frames": 0, "boxes": 0, "frames_with_line": 0,
+           "speed": {}}
+    for size in sizes:
+        seqs = native if size is None else [[cv2.resize(f, size, interpolation=cv2.INTER_LINEAR) for f in q]
+                                            for q in native]
+        for sf, (mn, ex) in settings.items():
+            kw = dict(scale_factor=sf, min_neighbors=mn, neighbors_size_exp=ex)
+            a, b = old.CascadeDetector(model_xml, **kw), CascadeDetector(model_xml, **kw)
+            for q in seqs:
+                a.reset()
+                b.reset()
+                for k, img in enumerate(q):
+                    da, db = a.detect(Frame(img, k / 25.0, k)), b.detect(Frame(img, k / 25.0, k))
+                    same = (da.boxes.shape == db.boxes.shape and np.array_equal(da.boxes, db.boxes)
+                            and np.array_equal(da.scores, db.scores) and a.horizon == b.horizon)
+                    out["frames"] += 1
+                    out["differing_frames"] += int(not same)
+                    out["boxes"] += len(db.boxes)
+                    out["frames_with_line"] += int(b.horizon is not None)
+            if size != sizes[0]:
+                continue
+            ta, tb = [], []
+            n = 0
+            for _ in range(passes):
+                for q in seqs:
+                    a.reset()
+                    b.reset()
+                    for k, img in enumerate(q):
+                        fr = Frame(img, k / 25.0, k)
+                        pair = ((a, ta), (b, tb)) if n % 2 == 0 else ((b, tb), (a, ta))
+                        n += 1
+                        for d, ts in pair:
+                            c0 = time.process_time()
+                            d.detect(fr)
+                            ts.append(time.process_time() - c0)
+            ta, tb = np.array(ta), np.array(tb)
+            out["speed"][f"sf{sf:g}"] = {"before_ms": round(1000 * float(np.median(ta)), 3),
+                                         "after_ms": round(1000 * float(np.median(tb)), 3),
+                                         "ratio": round(float(np.median(tb) / np.median(ta)), 4),
+                                         "after_faster_share": round(float((tb < ta).mean()), 3)}
+    return out
 
 
 def choose_speed_setting(rows, target_fps: float) -> dict | None:
@@ -410,10 +485,11 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--model", type=Path, required=True)
     ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
-    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule, playedrule (comma-separated)")
+    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule, playedrule, samecheck (comma-separated)")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
+    ap.add_argument("--before", default="7a40f93", help="with --what samecheck: the commit of the old cascade.py")
     a = ap.parse_args(argv)
     from seawatch.train.recipe import load_training_data
 
@@ -437,6 +513,9 @@ def main(argv=None) -> int:
         print(json.dumps(res["horizon"], indent=1))
     if "speedrule" in what:
         res["speed_settings"] = speed_settings(a.model, parts)
+    if "samecheck" in what:
+        res["played_compare"] = played_compare(a.before, a.model, parts)
+        print(json.dumps(res["played_compare"], indent=1))
     if "playedrule" in what:
         res["played_speed_settings"] = played_speed_settings(a.model, parts)
         print(json.dumps(res["played_speed_settings"], indent=1))
