@@ -539,3 +539,56 @@ def test_box_rule_threshold_can_follow_the_velocity_noise():
     assert box(0.0) == pytest.approx([98, 58, 24, 6])
     assert box(2.0) == pytest.approx([98, 58, 24, 44])
     assert box(0.5) == pytest.approx([98, 58, 24, 6])  # 2 px/s < 2.5: the fixed threshold holds
+
+
+def boat_with_reflection_and_wake(seed=0, wake=True):
+    """Grey sea with a dark hull (x 100-139, y 60-71), a lighter superstructure on it (x 110-124,
+    y 52-59), the reflection below the waterline (y 72-81, half the hull's contrast, fading) and
+    a thin wake of foam trailing 30 px to the left at the waterline (y 69-71)."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 260))
+    img[52:60, 110:125] = 70.0  # superstructure
+    img[60:72, 100:140] = 30.0  # hull
+    for k, r in enumerate(range(72, 82)):  # reflection: a fainter, fading copy
+        img[r, 100:140] = 120.0 - 45.0 * (1.0 - k / 10.0)
+    if wake:
+        img[69:72, 70:100] = 175.0  # foam behind the boat
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_waterline_cut_leaves_out_the_reflection_and_keeps_the_superstructure():
+    img = boat_with_reflection_and_wake(wake=False)
+    core = np.array([[108.0, 62.0, 20.0, 14.0]])  # features on the hull and on the reflection
+    plain = grow_boxes(img, core, core, grow=1.5)
+    cut = grow_boxes(img, core, core, grow=1.5, waterline_frac=0.5)
+    assert plain[0][1] == pytest.approx(52) and plain[0][1] + plain[0][3] >= 75  # takes in the reflection
+    assert cut[0].tolist() == pytest.approx([100, 52, 40, 20])  # superstructure top to the waterline
+
+
+def test_wake_is_cut_only_on_the_trailing_side():
+    img = boat_with_reflection_and_wake(wake=True)
+    core = np.array([[104.0, 62.0, 30.0, 8.0]])
+    kw = dict(grow=1.5, waterline_frac=0.5, wide_grow_px=120.0)
+    with_wake = grow_boxes(img, core, core, **kw)
+    assert with_wake[0][0] == pytest.approx(70)  # the wake widens the box to the left
+    # moving right: the wake trails on the left and is cut
+    cut = grow_boxes(img, core, core, wake_frac=0.3, trail=np.array([-1]), **kw)
+    assert cut[0].tolist() == pytest.approx([100, 52, 40, 20])
+    # the other side, or no motion, cuts nothing
+    for t in (1, 0):
+        assert grow_boxes(img, core, core, wake_frac=0.3, trail=np.array([t]), **kw)[0].tolist() == \
+            pytest.approx(with_wake[0].tolist())
+
+
+def test_wake_cut_keeps_a_short_bow_beside_a_mast():
+    # a sailboat: a tall thin sail over a short hull; the hull's ends beside the sail are low
+    # columns but too short a run (2 px, under 3 px) to be a wake
+    rng = np.random.default_rng(3)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 240))
+    img[30:66, 112:118] = 200.0  # sail
+    img[66:70, 110:120] = 30.0  # hull, 2 px longer than the sail's foot each way
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    core = np.array([[112.0, 40.0, 5.0, 28.0]])
+    for t in (1, -1):
+        out = grow_boxes(img, core, core, grow=1.0, waterline_frac=0.5, wake_frac=0.3, trail=np.array([t]))
+        assert out[0].tolist() == pytest.approx([110, 30, 10, 40])

@@ -658,7 +658,8 @@ def grow_boxes(
     image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
-    return_contrast: bool = False, wide_grow_px: float = 0.0,
+    return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
+    wake_frac: float = 0.0, trail: np.ndarray | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -689,6 +690,22 @@ def grow_boxes(
         grown by this many pixels to the left and right (0: never); a coastline still reaches
         its edges and is left out, a hull is now held inside, and its contrast is the wider
         window's.  Not in the paper (stop 13).
+    waterline_frac : float
+        Cut the reflection (0: off; not in the paper, stop 15): each row's contrast is the median
+        of its deviation from the background over the object's columns; the object ends below
+        the lowest row whose contrast reaches this fraction of the strongest row's.  A boat's
+        reflection on the water is a fainter copy of it, so its rows fall below the hull's at
+        the waterline.
+    wake_frac : float
+        Keep a wake out of the width (0: off; not in the paper, stop 15): after the waterline
+        cut, on the side given by ``trail``, a run of columns at the object's end whose height
+        (from its top foreground pixel to the object's bottom) is below this fraction of the
+        75th percentile of the columns' heights is dropped when the run is at least 3 px and a
+        quarter of the object's width long (a wake is a long, thin band of foam at the
+        waterline behind a moving boat; the hull and its superstructure are tall).
+    trail : (N,) int, optional
+        The side of each object that a wake would trail on: -1 left, +1 right, 0 none (the
+        boat's motion across the image points the other way).  None: no wake is cut.
 
     Returns
     -------
@@ -705,18 +722,21 @@ def grow_boxes(
     cores = np.asarray(cores, np.float64).reshape(-1, 4)
     b = int(border_px)
     contrast = np.full(len(out), np.nan)
+    trail = np.zeros(len(out), np.int64) if trail is None else np.asarray(trail, np.int64).reshape(-1)
     for n in range(len(out)):
         x, y, w, h = out[n]
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
-                                            max_fill, peak_frac)
+                                            max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
+                                            int(trail[n]))
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
             # coastline still reaches its edges)
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
-                                   max_fill, peak_frac)
+                                   max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
+                                   int(trail[n]))
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -724,7 +744,8 @@ def grow_boxes(
     return (out, contrast) if return_contrast else out
 
 
-def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac):
+def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
+              waterline_frac=0.0, wake_frac=0.0, trail=0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -781,7 +802,35 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     ih = min(ny1, cy + ch1) - max(ny0, cy)
     if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
         return None, contrast, False
+    if waterline_frac > 0 or wake_frac > 0:
+        nx0, ny0, nx1, ny1 = _trim_object(dev, np.isin(lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
+                                          waterline_frac, wake_frac, trail)
+        nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
+
+
+def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0):
+    """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
+    reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
+    :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
+    from its background, ``sel`` the object's foreground mask."""
+    x0, y0, x1, y1 = (int(v) for v in ext)
+    if waterline_frac > 0 and y1 - y0 >= 3:
+        rows = np.median(dev[y0:y1, x0:x1], axis=1)
+        strong = np.flatnonzero(rows >= waterline_frac * rows.max())
+        y1 = y0 + int(strong[-1]) + 1
+    if wake_frac > 0 and trail != 0 and x1 - x0 >= 3:
+        m = sel[y0:y1, x0:x1]
+        # each column's height: from its top foreground pixel down to the object's bottom
+        ext = np.where(m.any(axis=0), (y1 - y0) - np.argmax(m, axis=0), 0)
+        ref = np.percentile(ext[ext > 0], 75) if (ext > 0).any() else 0.0
+        tall = np.flatnonzero(ext >= wake_frac * ref)
+        if len(tall):
+            # only a long run of low columns is a wake (not a bow or stern beside a mast)
+            run = max(3, 0.25 * (x1 - x0))
+            a, b = int(tall[0]), (x1 - x0) - int(tall[-1]) - 1
+            x0, x1 = x0 + (a if a >= run and trail < 0 else 0), x1 - (b if b >= run and trail > 0 else 0)
+    return x0, y0, x1, y1
 
 
 def _box_members(k, vel, n, max_dv):
@@ -893,7 +942,12 @@ class ClusterParams:
     times the zoom) or ``merge_keep_gap_h`` (2) times the taller box's height apart, whichever
     is more, and they move alike: relative velocities within ``merge_dv_px_s``
     (with ``merge_dv_px_s`` 0 the join ignores velocity; an unknown velocity counts as alike; see
-    :meth:`FeatureClusterer._sticky_pairs`)."""
+    :meth:`FeatureClusterer._sticky_pairs`).
+    Stop 15: ``waterline_frac`` (0.5; 0 off): the grown box ends at the waterline, below the
+    lowest row whose contrast reaches half the strongest row's (the reflection is cut);
+    ``wake_frac`` (0 off) with ``wake_min_px_s``: a cluster whose box members move across the
+    image faster than ``wake_min_px_s`` relative to the scene loses a long run of low columns
+    on its trailing side (its wake); see :func:`grow_boxes`."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -934,6 +988,9 @@ class ClusterParams:
     merge_keep_gap_px: float = 2.0
     merge_keep_gap_h: float = 2.0
     box_dv_noise_k: float = 0.0
+    waterline_frac: float = 0.5
+    wake_frac: float = 0.0
+    wake_min_px_s: float = 5.0
 
 
 class FeatureClusterer:
@@ -1318,9 +1375,23 @@ class FeatureClusterer:
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
+            trail = None
+            if p.wake_frac > 0:
+                # a wake trails behind a boat moving across the image (relative to the scene):
+                # the box members' mean velocity
+                with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    fvb = np.nanmean(snap.history[m], axis=1)
+                    fvb = fvb[inb] if p.box_dv_px_s > 0 else fvb
+                okv = np.isfinite(fvb).all(axis=1)
+                vx = np.zeros(n)
+                np.add.at(vx, kb[okv], fvb[okv, 0])
+                vx /= np.maximum(np.bincount(kb[okv], minlength=n), 1)
+                trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
-                peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px)
+                peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
+                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail)
         count = np.bincount(k, minlength=n)
         iv = snap.image_velocity[m]
         ok = np.isfinite(iv).all(axis=1)
