@@ -592,3 +592,20 @@ def test_wake_cut_keeps_a_short_bow_beside_a_mast():
     for t in (1, -1):
         out = grow_boxes(img, core, core, grow=1.0, waterline_frac=0.5, wake_frac=0.3, trail=np.array([t]))
         assert out[0].tolist() == pytest.approx([110, 30, 10, 40])
+
+
+def test_top_extension_takes_in_a_faint_superstructure_but_not_its_neighbourhood():
+    rng = np.random.default_rng(4)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 260))
+    img[:50] += 60.0  # bright sky above the horizon at row 50
+    img[40:60, 118:128] = 145.0  # a grey bridge: 35 levels below the sky, 25 above the sea
+    img[60:72, 100:150] = 30.0  # the dark hull, 90 levels below the sea
+    img[20:30, 60:64] = 120.0  # a faint object beside, not touching the boat
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    core = np.array([[110.0, 62.0, 30.0, 8.0]])
+    plain = grow_boxes(img, core, core, grow=1.5)
+    assert plain[0].tolist() == pytest.approx([100, 60, 50, 12])  # the bridge is below half the hull's contrast
+    up = grow_boxes(img, core, core, grow=1.5, top_frac=0.25)
+    assert up[0].tolist() == pytest.approx([100, 40, 50, 32])  # bridge in, width and bottom kept
+    # at or above peak_frac the extension is off
+    assert grow_boxes(img, core, core, grow=1.5, top_frac=0.5)[0].tolist() == pytest.approx(plain[0].tolist())

@@ -659,7 +659,7 @@ def grow_boxes(
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
-    wake_frac: float = 0.0, trail: np.ndarray | None = None,
+    wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -706,6 +706,13 @@ def grow_boxes(
     trail : (N,) int, optional
         The side of each object that a wake would trail on: -1 left, +1 right, 0 none (the
         boat's motion across the image points the other way).  None: no wake is cut.
+    top_frac : float
+        Keep the superstructure in (0: off; not in the paper, stop 15): the object's top goes up
+        to the top of the foreground found with this fraction of the core's contrast instead of
+        ``peak_frac`` (components touching the object's top rows within its columns and not the
+        window's left or right edge; only rows above the object count, so its width and bottom
+        stay).  A bridge or a sail against the sky stands out less than the dark hull on the
+        water.
 
     Returns
     -------
@@ -729,14 +736,14 @@ def grow_boxes(
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                            int(trail[n]))
+                                            int(trail[n]), top_frac)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
             # coastline still reaches its edges)
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                   int(trail[n]))
+                                   int(trail[n]), top_frac)
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -745,7 +752,7 @@ def grow_boxes(
 
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
-              waterline_frac=0.0, wake_frac=0.0, trail=0):
+              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -806,7 +813,32 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
         nx0, ny0, nx1, ny1 = _trim_object(dev, np.isin(lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                           waterline_frac, wake_frac, trail)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
+    if top_frac > 0 and top_frac < peak_frac:
+        ny0 = y0 + _extend_top(dev, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
+                               max(k_sigma * sigma, min_contrast, top_frac * peak), x0 > 0, x1 < ww)
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
+
+
+def _extend_top(dev, ext, thr, left_edge, right_edge):
+    """The object's top row (window pixels) raised to the foreground above it at the lower
+    threshold ``thr`` (see :func:`grow_boxes`, ``top_frac``): components of that foreground
+    touching the object's two top rows within its columns, not reaching the window's left
+    (``left_edge``) or right (``right_edge``) edge; only their rows within the object's columns
+    count."""
+    x0, y0, x1, y1 = (int(v) for v in ext)
+    if y0 <= 0:
+        return y0
+    fg = cv2.morphologyEx((dev > thr).astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    nlab, lab = cv2.connectedComponents(fg, connectivity=8)
+    if nlab <= 1:
+        return y0
+    hit = np.unique(lab[y0:min(y0 + 2, y1), x0:x1])
+    edge = np.r_[lab[:, 0] if left_edge else [], lab[:, -1] if right_edge else []].astype(np.int64)
+    hit = np.setdiff1d(hit[hit > 0], edge)
+    if not len(hit):
+        return y0
+    rows = np.flatnonzero(np.isin(lab[:y0, x0:x1], hit).any(axis=1))
+    return int(rows[0]) if len(rows) else y0
 
 
 def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0):
@@ -945,9 +977,11 @@ class ClusterParams:
     :meth:`FeatureClusterer._sticky_pairs`).
     Stop 15: ``waterline_frac`` (0.5; 0 off): the grown box ends at the waterline, below the
     lowest row whose contrast reaches half the strongest row's (the reflection is cut);
-    ``wake_frac`` (0 off) with ``wake_min_px_s``: a cluster whose box members move across the
-    image faster than ``wake_min_px_s`` relative to the scene loses a long run of low columns
-    on its trailing side (its wake); see :func:`grow_boxes`."""
+    ``wake_frac`` (0.3; 0 off) with ``wake_min_px_s`` (5): a cluster whose box members move
+    across the image faster than ``wake_min_px_s`` relative to the scene loses a long run of low
+    columns on its trailing side (its wake); ``top_frac`` (0.35; 0 off): the box's top goes up
+    to the foreground found at this fraction of the core's contrast (a superstructure against
+    the sky); see :func:`grow_boxes`."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -989,8 +1023,9 @@ class ClusterParams:
     merge_keep_gap_h: float = 2.0
     box_dv_noise_k: float = 0.0
     waterline_frac: float = 0.5
-    wake_frac: float = 0.0
+    wake_frac: float = 0.3
     wake_min_px_s: float = 5.0
+    top_frac: float = 0.35
 
 
 class FeatureClusterer:
@@ -1391,7 +1426,7 @@ class FeatureClusterer:
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
-                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail)
+                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac)
         count = np.bincount(k, minlength=n)
         iv = snap.image_velocity[m]
         ok = np.isfinite(iv).all(axis=1)
