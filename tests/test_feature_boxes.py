@@ -609,3 +609,14 @@ def test_top_extension_takes_in_a_faint_superstructure_but_not_its_neighbourhood
     assert up[0].tolist() == pytest.approx([100, 40, 50, 32])  # bridge in, width and bottom kept
     # at or above peak_frac the extension is off
     assert grow_boxes(img, core, core, grow=1.5, top_frac=0.5)[0].tolist() == pytest.approx(plain[0].tolist())
+
+
+def test_a_box_many_times_wider_than_tall_is_not_reported():
+    # a line of features along the foot of a coast (80 px wide, 4 px tall with the keypoints'
+    # radius) and a boat (10 px wide); without an image the boxes are the features' extent
+    xy = [[20, 60], [40, 60], [60, 60], [80, 60], [96, 60], [150, 100], [156, 102]]
+    vel = [[20, 0]] * 5 + [[0, 20]] * 2
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=25.0)).update(snap(xy, vel, 0.0, 0))
+    assert np.round(tr.boxes[:, 0]).tolist() == [148]
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, radius_px=25.0, max_aspect=0.0)).update(snap(xy, vel, 0.0, 0))
+    assert sorted(np.round(tr.boxes[:, 0]).tolist()) == [18, 148]

@@ -981,7 +981,8 @@ class ClusterParams:
     across the image faster than ``wake_min_px_s`` relative to the scene loses a long run of low
     columns on its trailing side (its wake); ``top_frac`` (0.35; 0 off): the box's top goes up
     to the foreground found at this fraction of the core's contrast (a superstructure against
-    the sky); see :func:`grow_boxes`."""
+    the sky); see :func:`grow_boxes`; ``max_aspect`` (12; 0 off): a report whose box is more
+    than this many times wider than tall is dropped (the foot of a coast, the horizon)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1026,6 +1027,7 @@ class ClusterParams:
     wake_frac: float = 0.3
     wake_min_px_s: float = 5.0
     top_frac: float = 0.35
+    max_aspect: float = 12.0
 
 
 class FeatureClusterer:
@@ -1448,6 +1450,14 @@ class FeatureClusterer:
             ok = ~(boxes[:, 1] + boxes[:, 3] < row - p.sky_margin_px * self._zoom)
             cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
             keep_c = ok if keep_c is None else np.flatnonzero(keep_c)[ok]
+        if p.max_aspect > 0 and len(cids):
+            # a box many times wider than tall is a line (the foot of a coast, the horizon), not a boat
+            ok = ~(boxes[:, 2] > p.max_aspect * np.maximum(boxes[:, 3], 1e-9))
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            if keep_c is None:
+                keep_c = ok
+            else:  # a mask over the clusters, or the indices kept so far
+                keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
             if p.merge_gap_h > 0 or p.merge_keep > 0:
