@@ -504,6 +504,11 @@ class StableFeatureExtractor:
         band_min_size_px: float = 0.0,
         guided_min_quality: float = 0.25,
         dedup_px: float = 3.0,
+        hold_s: float = 0.0,
+        hold_min_confidence: int = 1,
+        hold_max_err: float = float("inf"),
+        band_line_threshold_projected: int | None = None,
+        band_line_threshold_binarized: int | None = None,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -552,11 +557,17 @@ class StableFeatureExtractor:
         self.guided_px = float(guided_px)
         self.guided_min_quality = float(guided_min_quality)
         self.dedup_px = float(dedup_px)
+        if hold_s < 0:
+            raise ValueError(f"features: hold_s must be >= 0, got {hold_s}")
+        self.hold_s = float(hold_s)
+        self.hold_min_confidence = int(hold_min_confidence)
+        self.hold_max_err = float(hold_max_err)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
+        blp = star_line_threshold_projected if band_line_threshold_projected is None else band_line_threshold_projected
+        blb = star_line_threshold_binarized if band_line_threshold_binarized is None else band_line_threshold_binarized
         self._band_star = cv2.xfeatures2d.StarDetector_create(
-            int(star_max_size), int(band_threshold), int(star_line_threshold_projected),
-            int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
+            int(star_max_size), int(band_threshold), int(blp), int(blb), int(star_suppress_nonmax_size),
         )
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
@@ -578,6 +589,7 @@ class StableFeatureExtractor:
         self._size = np.zeros(0)
         self._desc = np.zeros((0, _DESC_DIM), np.float32)
         self._conf = np.zeros(0, np.int32)
+        self._tmatch = np.zeros(0)  # time of each feature's last descriptor match (or birth)
         self._pos = np.zeros((0, self._k, 2))  # past observed positions, in current-frame pixels
         self._vel = np.zeros((0, self._w, 2))  # velocity samples, px/s
         self._ivel = np.zeros((0, 2))
@@ -605,6 +617,7 @@ class StableFeatureExtractor:
         self._size = pad(self._size, 0.0)
         self._desc = pad(self._desc, 0.0, _DESC_DIM)
         self._conf = pad(self._conf, 0)
+        self._tmatch = pad(self._tmatch, -np.inf)
         self._pos = pad(self._pos, np.nan, self._k, 2)
         self._vel = pad(self._vel, np.nan, self._w, 2)
         self._ivel = pad(self._ivel, np.nan, 2)
@@ -854,6 +867,39 @@ class StableFeatureExtractor:
         out[ok] = p1[ok]
         return out, ok
 
+    def _hold(self, act: np.ndarray, si: np.ndarray, h: np.ndarray, grey: np.ndarray, t_s: float):
+        """Active features not matched this frame that Lucas-Kanade follows from their last
+        position (``hold_s`` > 0; not in the paper): slots and their positions in this frame.
+
+        A feature is held at most ``hold_s`` seconds after its last descriptor match (or its
+        birth); LK starts at the position the camera motion carries it to, and must converge
+        (OpenCV's status, the window's smallest gradient eigenvalue at least
+        ``subpixel_min_eig``) within ``subpixel_max_px`` of that position."""
+        none = np.zeros(0, np.int64), np.zeros((0, 2))
+        if self.hold_s <= 0 or self._grey_prev is None or not act.size:
+            return none
+        um = np.setdiff1d(act, si, assume_unique=True)
+        um = um[(t_s - self._tmatch[um] <= self.hold_s + 1e-9) & (self._conf[um] >= self.hold_min_confidence)]
+        if not len(um):
+            return none
+        src = self._xy[um]
+        dst = _apply_h(h, src)
+        fin = np.isfinite(src).all(axis=1) & np.isfinite(dst).all(axis=1)
+        um, src, dst = um[fin], src[fin], dst[fin]
+        if not len(um):
+            return none
+        p1, status, err = cv2.calcOpticalFlowPyrLK(
+            self._grey_prev, grey, src.astype(np.float32).reshape(-1, 1, 2),
+            dst.astype(np.float32).reshape(-1, 1, 2).copy(),
+            winSize=(self.subpixel_win_px, self.subpixel_win_px), maxLevel=1,
+            criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 10, 0.01),
+            flags=cv2.OPTFLOW_USE_INITIAL_FLOW, minEigThreshold=self.subpixel_min_eig,
+        )
+        p1 = p1.reshape(-1, 2).astype(np.float64)
+        ok = (status.reshape(-1) == 1) & (np.linalg.norm(p1 - dst, axis=1) <= self.subpixel_max_px)
+        ok &= err.reshape(-1) <= self.hold_max_err
+        return um[ok], p1[ok]
+
     # ----------------------------------------------------------------- main
     def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None,
                 horizon=None, zoom: float = 1.0) -> FeatureSnapshot:
@@ -936,6 +982,8 @@ class StableFeatureExtractor:
             keep = np.linalg.norm(res - mu, axis=1) <= gate
             qi, si, jumped = qi[keep], si[keep], jumped[keep]
 
+        held, hxy = self._hold(act, si, h, grey, t_s)
+
         # carry every position into this frame with the camera motion
         if act.size:
             self._xy[act] = _apply_h(h, self._xy[act])
@@ -955,25 +1003,31 @@ class StableFeatureExtractor:
         self._pos[si, col] = kxy[qi]
         self._conf[act] -= 1
         self._conf[si] += 2
+        self._conf[held] += 1  # held: neither up nor down
+        self._xy[held] = hxy
+        self._pos[held, col] = hxy
+        self._tmatch[si] = t_s
         np.minimum(self._conf, self.max_confidence, out=self._conf)
-        if len(si):
+        obs = np.r_[si, held]
+        oxy = np.concatenate([kxy[qi], hxy])
+        if len(obs):
             # velocity relative to the camera: position now minus the oldest position seen
             # within the baseline, both in this frame's pixels
             ages = (col - np.arange(self._k)) % self._k  # frames ago of each ring column
-            past = self._pos[si]
+            past = self._pos[obs]
             seen = np.isfinite(past[:, :, 0]) & (ages[None, :] > 0)
             score = np.where(seen, ages[None, :], -1)
             j = np.argmax(score, axis=1)
-            rows = np.arange(len(si))
+            rows = np.arange(len(obs))
             el = t_s - self._tpos[j]
             has = (score[rows, j] > 0) & (el > 0)
             with np.errstate(invalid="ignore", divide="ignore"):
-                v = (kxy[qi] - past[rows, j]) / el[:, None]
+                v = (oxy - past[rows, j]) / el[:, None]
             v[~has] = np.nan
-            self._vel[si, vcol] = v
+            self._vel[obs, vcol] = v
             # image velocity = relative velocity + the camera's image motion at that point
-            cam = (kxy[qi] - _apply_h(np.linalg.inv(h), kxy[qi])) / dt
-            self._ivel[si] = np.where(np.isfinite(v), v, 0.0) + cam
+            cam = (oxy - _apply_h(np.linalg.inv(h), oxy)) / dt
+            self._ivel[obs] = np.where(np.isfinite(v), v, 0.0) + cam
 
         # remove the features whose confidence fell to zero
         dead = act[self._conf[act] <= 0]
@@ -1005,6 +1059,7 @@ class StableFeatureExtractor:
             self._size[s] = ksize[new_q]
             self._desc[s] = kdesc[new_q]
             self._conf[s] = 1
+            self._tmatch[s] = t_s
             self._pos[s] = np.nan
             self._pos[s, col] = kxy[new_q]
             self._vel[s] = np.nan
@@ -1039,7 +1094,7 @@ class StableFeatureExtractor:
             xy=self._xy[act] * k,
             size_px=self._size[act] * k,
             confidence=self._conf[act].copy(),
-            stable=self._conf[act] >= self.stable_confidence,
+            stable=st,
             matched=matched[act],
             velocity=hist[:, -1].copy() if len(act) else np.zeros((0, 2)),
             history=hist,

@@ -1,0 +1,154 @@
+"""The stable-feature extractor's stop-15 keywords (paper B, step 1): features held through a
+short miss by Lucas-Kanade (``hold_s``), and the water band's own line thresholds."""
+
+import numpy as np
+import pytest
+
+from seawatch.detect.features import StableFeatureExtractor
+
+FPS = 25.0
+W, H = 240, 160
+
+
+def _blobs(seed=3, n=70):
+    """A grey image of random dark and bright squares (corners for CenSurE and Lucas-Kanade)."""
+    rng = np.random.default_rng(seed)
+    img = np.full((H, W), 110.0, np.float32)
+    for _ in range(n):
+        x, y, s = rng.integers(8, W - 16), rng.integers(8, H - 16), rng.integers(3, 8)
+        img[y: y + s, x: x + s] = rng.integers(0, 60) if rng.random() < 0.5 else rng.integers(170, 255)
+    return img
+
+
+def _shift(img, dx, dy):
+    """``img`` moved by whole pixels (the border repeats)."""
+    out = np.roll(np.roll(img, dy, axis=0), dx, axis=1)
+    return out.astype(np.uint8)
+
+
+def _settle(ext, img, n=6):
+    """Process the same frame ``n`` times (every feature matched each time)."""
+    for k in range(n):
+        snap = ext.process(img.astype(np.uint8), k / FPS)
+    return snap, n
+
+
+def _miss(ext):
+    """Make the next frames' descriptor matching find nothing (a detector or ratio-test miss)."""
+    ext._match = lambda desc, act, kxy=None, radius_px=0.0: (np.zeros(0, np.int64), np.zeros(0, np.int64))
+
+
+def _by_id(snap):
+    return {int(i): k for k, i in enumerate(snap.ids)}
+
+
+@pytest.mark.parametrize("hold_s", [0.0, 0.2])
+def test_a_missed_feature_is_held_where_lucas_kanade_follows_it(hold_s):
+    img = _blobs()
+    ext = StableFeatureExtractor(nominal_fps=FPS, hold_s=hold_s, guided_px=0)
+    before, n = _settle(ext, img)
+    assert before.stable.sum() > 20
+    _miss(ext)
+    after = ext.process(_shift(img, 2, 1), n / FPS)  # the scene moved 2 px right, 1 down
+    ia, ib = _by_id(after), _by_id(before)
+    common = [i for i in ib if i in ia and before.stable[ib[i]]]
+    conf_b = np.array([before.confidence[ib[i]] for i in common])
+    conf_a = np.array([after.confidence[ia[i]] for i in common])
+    moved = np.array([after.xy[ia[i]] - before.xy[ib[i]] for i in common])
+    assert not after.matched.any()
+    if hold_s == 0:  # the paper: every unmatched feature loses one, and stays where it was
+        assert np.array_equal(conf_a, conf_b - 1)
+        assert np.abs(moved).max() == 0
+    else:  # most are held: same confidence, found at their new place
+        held = conf_a == conf_b
+        assert held.mean() > 0.8
+        assert np.array_equal(conf_a[~held], conf_b[~held] - 1)
+        assert np.allclose(moved[held], [2.0, 1.0], atol=0.3)
+        # a held feature has a velocity sample from its new place: 2 px over one frame... or
+        # over the velocity baseline (the scene stood still before)
+        v = np.array([after.velocity[ia[i]] for i in np.array(common)[held]])
+        assert np.isfinite(v).all() and np.all(v[:, 0] > 0) and np.all(v[:, 1] > 0)
+
+
+def test_a_feature_is_held_at_most_hold_s_after_its_last_match():
+    img = _blobs(seed=4)
+    ext = StableFeatureExtractor(nominal_fps=FPS, hold_s=0.1, guided_px=0)
+    before, n = _settle(ext, img)
+    i0 = int(np.flatnonzero(before.stable)[0])
+    fid, c0 = int(before.ids[i0]), int(before.confidence[i0])
+    _miss(ext)
+    confs = []
+    for k in range(4):  # 0.04, 0.08, 0.12, 0.16 s after the last match
+        snap = ext.process(img.astype(np.uint8), (n + k) / FPS)
+        confs.append(int(snap.confidence[_by_id(snap)[fid]]))
+    assert confs == [c0, c0, c0 - 1, c0 - 2]
+
+
+def test_a_feature_on_a_patch_gone_flat_is_held_only_without_an_error_limit():
+    """Lucas-Kanade's gradient test looks at the previous frame's window, so a feature whose
+    patch has lost its texture still converges; ``hold_max_err`` (the mean absolute grey-level
+    difference of the matched windows) refuses it, while the textured half is still held."""
+    img = _blobs(seed=5)
+    flat = img.copy()
+    flat[:, : W // 2] = 110.0  # the left half's texture is gone
+    res = {}
+    for err in (float("inf"), 8.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, hold_s=0.2, guided_px=0, hold_max_err=err)
+        before, n = _settle(ext, img)
+        _miss(ext)
+        after = ext.process(flat.astype(np.uint8), n / FPS)
+        ia = _by_id(after)
+        held = {"flat": [], "textured": []}
+        for k in np.flatnonzero(before.stable):
+            i = int(before.ids[k])
+            x = before.xy[k, 0]
+            side = "flat" if x < W // 2 - 20 else ("textured" if x > W // 2 + 20 else None)
+            if side:  # (15 px windows, 30 px at pyramid level 1)
+                held[side].append(i in ia and after.confidence[ia[i]] == before.confidence[k])
+        res[err] = {k: float(np.mean(v)) for k, v in held.items()}
+        assert len(held["flat"]) >= 8 and len(held["textured"]) >= 8
+    assert res[float("inf")]["flat"] > 0.25  # the gradient test alone holds some of them
+    assert res[8.0]["flat"] < 0.1
+    assert res[8.0]["textured"] == 1.0 and res[float("inf")]["textured"] == 1.0
+
+
+def test_newborn_features_are_held_only_from_hold_min_confidence():
+    img = _blobs(seed=6)
+    ext = StableFeatureExtractor(nominal_fps=FPS, hold_s=0.2, hold_min_confidence=2, guided_px=0)
+    first = ext.process(img.astype(np.uint8), 0.0)  # every feature is new: confidence 1
+    _miss(ext)
+    second = ext.process(img.astype(np.uint8), 1 / FPS)
+    # confidence 1 is below hold_min_confidence 2: all die (none of the first frame's is left)
+    assert not set(map(int, first.ids)) & set(map(int, second.ids))
+    ext2 = StableFeatureExtractor(nominal_fps=FPS, hold_s=0.2, hold_min_confidence=1, guided_px=0)
+    first2 = ext2.process(img.astype(np.uint8), 0.0)
+    _miss(ext2)
+    second2 = ext2.process(img.astype(np.uint8), 1 / FPS)
+    kept = set(map(int, first2.ids)) & set(map(int, second2.ids))
+    assert len(kept) > 0.8 * len(first2.ids)
+
+
+def test_bad_hold_settings_are_refused():
+    with pytest.raises(ValueError, match="hold_s"):
+        StableFeatureExtractor(hold_s=-0.1)
+
+
+def test_band_line_thresholds_default_to_the_images_and_can_be_relaxed():
+    """The band's CenSurE pass takes its own line thresholds; without them, the image's.  A
+    relaxed line test keeps more keypoints along an elongated far hull."""
+    from seawatch.detect.horizon import Horizon
+
+    rng = np.random.default_rng(0)
+    img = np.clip(100 + rng.normal(0, 3, (120, 200)), 0, 255).astype(np.uint8)
+    img[60:63, 30:170] = 160  # a thin far hull, 140 x 3 px
+    img[57:60, 80:84] = 190  # its bridge
+    hz = Horizon(58.0, 58.0, 200)
+    counts = {}
+    for name, kw in (("default", {}), ("same", dict(band_line_threshold_projected=10, band_line_threshold_binarized=8)),
+                     ("relaxed", dict(band_line_threshold_projected=40, band_line_threshold_binarized=32))):
+        ext = StableFeatureExtractor(nominal_fps=FPS, **kw)
+        snap = ext.process(img, 0.0, horizon=hz)  # the first frame: every keypoint is a new feature
+        on = (snap.xy[:, 0] >= 28) & (snap.xy[:, 0] <= 172) & (snap.xy[:, 1] >= 55) & (snap.xy[:, 1] <= 65)
+        counts[name] = (int(on.sum()), snap.xy.round(3).tolist())
+    assert counts["default"] == counts["same"]
+    assert counts["relaxed"][0] > counts["default"][0]
