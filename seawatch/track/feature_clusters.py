@@ -982,7 +982,8 @@ class ClusterParams:
     columns on its trailing side (its wake); ``top_frac`` (0.35; 0 off): the box's top goes up
     to the foreground found at this fraction of the core's contrast (a superstructure against
     the sky); see :func:`grow_boxes`; ``max_aspect`` (12; 0 off): a report whose box is more
-    than this many times wider than tall is dropped (the foot of a coast, the horizon)."""
+    than this many times wider than tall is dropped (the foot of a coast, the horizon).
+    ``merge_dv_px_s`` is 3 px/s since stop 15 (5 before)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1010,7 +1011,7 @@ class ClusterParams:
     relink_predict_s: float = 0.0
     relink_overlap: float = 0.3
     relink_camera: bool = True
-    merge_dv_px_s: float = 5.0
+    merge_dv_px_s: float = 3.0
     unmerge: bool = False
     merge_gap_h: float = 0.0
     merge_gap_min_px: float = 24.0
