@@ -135,11 +135,18 @@ def test_shipped_model_loads():
     if not path.is_file():
         pytest.skip("no shipped model yet")
     det = CascadeDetector()
-    assert det.window == (60, 30)
+    # session 15: v6's 30x15 cascade at the settings of the played-speed rule (1.3 / 6 / 0, 2 px grid)
+    assert det.window == (30, 15)
+    p = det.params
+    assert (p.scale_factor, p.min_neighbors, p.neighbors_size_exp, p.grid_step_px) == (1.3, 6, 0.0, 2)
     assert 0.3 < det.ratio_w <= 1.0 and 0.3 < det.ratio_h <= 1.2
     img, _, _ = _scene(630)
     d = det.detect(Frame(img, 0.0, 0))
     assert d.boxes.shape[1] == 4
+    # the previous default, v2, is kept beside it with its own settings
+    v2 = CascadeDetector(path.parent / "boat_cascade_v2.xml")
+    assert v2.window == (60, 30)
+    assert (v2.params.scale_factor, v2.params.min_neighbors, v2.params.grid_step_px) == (1.1, 48, 0)
 
 
 def test_from_config(model):
