@@ -826,8 +826,8 @@ def _extend_top(dev, ext, thr, left_edge, right_edge):
     (``left_edge``) or right (``right_edge``) edge; only their rows within the object's columns
     count."""
     x0, y0, x1, y1 = (int(v) for v in ext)
-    if y0 <= 0:
-        return y0
+    if y0 <= 0 or not (dev[max(y0 - 2, 0):y0, x0:x1] > thr).any():
+        return y0  # nothing above the object's top within reach of the closing
     fg = cv2.morphologyEx((dev > thr).astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     nlab, lab = cv2.connectedComponents(fg, connectivity=8)
     if nlab <= 1:
