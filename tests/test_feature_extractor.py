@@ -1,5 +1,6 @@
-"""The stable-feature extractor's stop-15 keywords (paper B, step 1): features held through a
-short miss by Lucas-Kanade (``hold_s``), and the water band's own line thresholds."""
+"""The stable-feature extractor's stop-15 keyword (paper B, step 1): features held through a
+short miss by Lucas-Kanade (``hold_s``, ``hold_min_confidence``, ``hold_max_err``,
+``hold_velocity``)."""
 
 import numpy as np
 import pytest
@@ -133,22 +134,20 @@ def test_bad_hold_settings_are_refused():
         StableFeatureExtractor(hold_s=-0.1)
 
 
-def test_band_line_thresholds_default_to_the_images_and_can_be_relaxed():
-    """The band's CenSurE pass takes its own line thresholds; without them, the image's.  A
-    relaxed line test keeps more keypoints along an elongated far hull."""
-    from seawatch.detect.horizon import Horizon
-
-    rng = np.random.default_rng(0)
-    img = np.clip(100 + rng.normal(0, 3, (120, 200)), 0, 255).astype(np.uint8)
-    img[60:63, 30:170] = 160  # a thin far hull, 140 x 3 px
-    img[57:60, 80:84] = 190  # its bridge
-    hz = Horizon(58.0, 58.0, 200)
-    counts = {}
-    for name, kw in (("default", {}), ("same", dict(band_line_threshold_projected=10, band_line_threshold_binarized=8)),
-                     ("relaxed", dict(band_line_threshold_projected=40, band_line_threshold_binarized=32))):
-        ext = StableFeatureExtractor(nominal_fps=FPS, **kw)
-        snap = ext.process(img, 0.0, horizon=hz)  # the first frame: every keypoint is a new feature
-        on = (snap.xy[:, 0] >= 28) & (snap.xy[:, 0] <= 172) & (snap.xy[:, 1] >= 55) & (snap.xy[:, 1] <= 65)
-        counts[name] = (int(on.sum()), snap.xy.round(3).tolist())
-    assert counts["default"] == counts["same"]
-    assert counts["relaxed"][0] > counts["default"][0]
+def test_without_hold_velocity_a_held_feature_moves_but_gives_no_velocity_sample():
+    img = _blobs(seed=7)
+    snaps = {}
+    for hv in (True, False):
+        ext = StableFeatureExtractor(nominal_fps=FPS, hold_s=0.2, guided_px=0, hold_velocity=hv)
+        before, n = _settle(ext, img)
+        _miss(ext)
+        after = ext.process(_shift(img, 2, 0), n / FPS)
+        ia, ib = _by_id(after), _by_id(before)
+        held = [i for i in ib if before.stable[ib[i]] and i in ia
+                and after.confidence[ia[i]] == before.confidence[ib[i]]]
+        assert len(held) > 10
+        moved = np.array([after.xy[ia[i]] - before.xy[ib[i]] for i in held])
+        assert np.allclose(moved, [2.0, 0.0], atol=0.3)
+        snaps[hv] = np.array([after.velocity[ia[i]] for i in held])
+    assert np.isfinite(snaps[True]).all() and np.all(snaps[True][:, 0] > 0)
+    assert np.isnan(snaps[False]).all()

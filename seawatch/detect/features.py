@@ -458,6 +458,26 @@ class StableFeatureExtractor:
         Lucas-Kanade window, how far the refined position may lie from the keypoint, and the
         smallest eigenvalue of the window's gradient matrix (OpenCV's ``minEigThreshold``)
         below which the window is too flat or too edge-like to follow.
+    hold_s : float
+        Stability kept through a short miss (not in the paper, where an unmatched feature
+        always loses one; stop 15; 0 turns it off): an active feature that no keypoint matches
+        in a frame, but that Lucas-Kanade follows from its last position (started where the
+        camera motion carries it, converging within ``subpixel_max_px`` of there, with the
+        window's gradient test ``subpixel_min_eig``), keeps its confidence instead of losing
+        one, moves to the followed position and gives a velocity sample from it.  It is held
+        at most ``hold_s`` seconds after its last descriptor match (or its birth); then it
+        decays as the paper's.  A held feature does not count as matched (``matched`` False)
+        and never gains confidence.
+    hold_min_confidence : int
+        Confidence a feature needs to be held (1: any, newborn features too).
+    hold_max_err : float
+        Largest mean absolute grey-level difference between the feature's window in the last
+        frame and the followed window in this one (OpenCV's LK error) for it to be held: the
+        gradient test looks at the last frame only, so a window whose texture has gone (the
+        sea's texture changed, the object left) still converges.  ``inf``: no limit.
+    hold_velocity : bool
+        Whether a held feature's followed position gives a velocity sample (True) or only
+        moves it (False).
     """
 
     def __init__(
@@ -507,8 +527,7 @@ class StableFeatureExtractor:
         hold_s: float = 0.0,
         hold_min_confidence: int = 1,
         hold_max_err: float = float("inf"),
-        band_line_threshold_projected: int | None = None,
-        band_line_threshold_binarized: int | None = None,
+        hold_velocity: bool = True,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -562,12 +581,12 @@ class StableFeatureExtractor:
         self.hold_s = float(hold_s)
         self.hold_min_confidence = int(hold_min_confidence)
         self.hold_max_err = float(hold_max_err)
+        self.hold_velocity = bool(hold_velocity)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
-        blp = star_line_threshold_projected if band_line_threshold_projected is None else band_line_threshold_projected
-        blb = star_line_threshold_binarized if band_line_threshold_binarized is None else band_line_threshold_binarized
         self._band_star = cv2.xfeatures2d.StarDetector_create(
-            int(star_max_size), int(band_threshold), int(blp), int(blb), int(star_suppress_nonmax_size),
+            int(star_max_size), int(band_threshold), int(star_line_threshold_projected),
+            int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
         )
         self._star = cv2.xfeatures2d.StarDetector_create(
             int(star_max_size), int(star_response_threshold), int(star_line_threshold_projected),
@@ -1005,8 +1024,11 @@ class StableFeatureExtractor:
         self._conf[si] += 2
         self._conf[held] += 1  # held: neither up nor down
         self._xy[held] = hxy
-        self._pos[held, col] = hxy
         self._tmatch[si] = t_s
+        if self.hold_velocity:
+            self._pos[held, col] = hxy
+        else:  # a held feature moves but gives no velocity sample
+            held, hxy = held[:0], hxy[:0]
         np.minimum(self._conf, self.max_confidence, out=self._conf)
         obs = np.r_[si, held]
         oxy = np.concatenate([kxy[qi], hxy])
