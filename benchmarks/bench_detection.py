@@ -12,9 +12,10 @@
 * Detector frames per second (cascade + horizon + filters) at 704x576 and 1920x1080 on one core,
   beside the reference cascade measured in the same process.
 
-The seawatch detector runs with its defaults (``min_neighbors`` chosen on the validation part of
-the training data, detection scale from the 1/16-of-the-width rule): nothing here is tuned on
-video2.
+The seawatch detector runs with its defaults (since session 15 v6's cascade at the settings of
+session 15's speed rule, chosen on the training and validation data; detection scale from the
+1/16-of-the-width rule): nothing here is tuned on video2.  The default's rows carry ``model``,
+``settings`` and ``identical_to`` (the ``ALTERNATIVES`` it equals, which are then not run again).
 """
 
 from __future__ import annotations
@@ -39,8 +40,8 @@ REF_BARCHE = {0.3: 0.40, 0.5: 0.26}  # the reference cascade's best F1, measured
 FAST_SETTINGS = {"smallest_boat_w/8": {}, "smallest_boat_w/8_sf1.3": {"scale_factor": 1.3}}
 TARGET = {0.3: 0.75, 0.5: 0.55}
 # other shipped cascades measured beside the default in the same run (video2, held-out MarDCT,
-# speed), each with the detector settings stored in its JSON; a file byte-identical to the
-# default is skipped
+# speed), each with the detector settings stored in its JSON; one equal to the default in both
+# the XML bytes and the JSON's ``detector`` block is skipped (the default's rows name it)
 ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v6": "boat_cascade_v6.xml", "v6fast": "boat_cascade_v6fast.xml",
                 "v6s15": "boat_cascade_v6s15.xml", "v2": "boat_cascade_v2.xml"}
 # the floor of a cascade scan at 704x576 (pyramid, integrals, variance checks; a cascade that
@@ -137,13 +138,16 @@ def run(ctx) -> None:
                     ctx.record("shipped model training", f"seawatch_cascade{tag}", key, meta[key], unit,
                                model=mp.name)
 
+    # which model the default's rows are: its file, its settings and the alternatives it equals
+    alts = _alternatives(model)
+    default_id = _default_id(model)
+
     # seawatch's cascade, with and without the horizon filter
     for hz in (True, False):
         det = CascadeDetector(model, horizon_filter=hz)
         pred = _run(det, frames, gt)
         _record_scores(ctx, ds, "seawatch_cascade" + ("+horizon" if hz else ""), pred, gt, hz,
-                       extra={"smallest_boat_px": det.min_boat_px(320)})
-    alts = _alternatives(model)
+                       extra={"smallest_boat_px": det.min_boat_px(320), **default_id})
     for tag, alt in alts.items():
         for hz in (True, False):
             det = CascadeDetector(alt, horizon_filter=hz)
@@ -205,7 +209,7 @@ def run(ctx) -> None:
                 b, s = det.detect_grey(cv2.imread(str(im.path), cv2.IMREAD_GRAYSCALE), 0.0)
                 pred[k] = (b, s)
             _record_scores(ctx, f"mardct_heldout({len(held)} frames)", "seawatch_cascade" + ("+horizon" if hz else ""),
-                           pred, gt_h, hz)
+                           pred, gt_h, hz, extra=default_id)
             for tag, alt in alts.items():
                 det = CascadeDetector(alt, horizon_filter=hz)
                 pred = {}
@@ -241,7 +245,7 @@ def run(ctx) -> None:
                     pred[k] = det.detect_grey(cv2.imread(str(im.path), cv2.IMREAD_GRAYSCALE), 0.0)
                 _record_scores(ctx, f"coral_heldout({len(coral)} images, boats >= 20 px)",
                                f"seawatch_cascade{tag}+horizon", pred, {k: b[b[:, 2] >= 20] for k, b in gt_c.items()},
-                               True)
+                               True, extra=default_id if mp == model else {"model": mp.name})
 
     # simulator: the same cascade on the EO harbour and the thermal (IR) harbour, a seed never
     # trained on (training uses seed 0 and validation seed 100)
@@ -263,7 +267,7 @@ def run(ctx) -> None:
                 d = det.detect(fr)
                 pred[int(i)] = (d.boxes, d.scores)
             _record_scores(ctx, f"sim_{name}_seed42({len(idx)} frames, boats >= 24 px)",
-                           "seawatch_cascade+horizon", pred, gt_s, True)
+                           "seawatch_cascade+horizon", pred, gt_s, True, extra=default_id)
 
     # speed, one core (cv2.setNumThreads(1)): CPU time per frame, which a machine shared with
     # other jobs does not inflate as much as wall time (both are recorded)
@@ -286,10 +290,12 @@ def run(ctx) -> None:
                 **{f"seawatch_cascade_{t}+filters(no_scan_region)": CascadeDetector(a, scan_region=False)
                    for t, a in alts.items()},
                 # each model at the best settings of its validation table for the other scale
-                # factors (speed only, never scored on video2): what a faster scale factor costs
+                # factors (speed only, never scored on video2): what a faster scale factor costs;
+                # the default without a table of its own (v6s15) takes that of the alternative
+                # with its cascade (v6)
                 **{f"seawatch_cascade{t}+filters(validation_best_sf{sf:g})": CascadeDetector(mp, **kw)
                    for t, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items()
-                   for sf, kw in _best_per_scale_factor(mp).items()},
+                   for sf, kw in _best_per_scale_factor(mp, list(alts.values()) if mp == model else ()).items()},
                 "barche_x1": peer}
         for name, d in dets.items():
             d.detect(Frame(imgs[0], 0.0, 0))  # warm-up
@@ -323,27 +329,76 @@ def run(ctx) -> None:
             _floor(ctx, imgs, f"{w}x{h} one core", reps)
 
 
+def _detector_block(xml: Path):
+    """The ``detector`` block of the JSON beside a cascade XML (None without a JSON or block)."""
+    import json
+
+    p = xml.with_suffix(".json")
+    if not p.is_file():
+        return None
+    return json.loads(p.read_text()).get("detector")
+
+
+def _same_model(a: Path, b: Path) -> bool:
+    """Same cascade (XML bytes) and same detector settings (the JSON's ``detector`` block)."""
+    return a.read_bytes() == b.read_bytes() and _detector_block(a) == _detector_block(b)
+
+
 def _alternatives(model: Path) -> dict:
-    """The ``ALTERNATIVES`` that exist beside the default model and differ from it."""
+    """The ``ALTERNATIVES`` that exist beside the default model and differ from it: in the XML or
+    in the detector settings of the JSON (an alternative sharing the default's cascade with other
+    settings, e.g. v6 and v6fast beside v6s15, is kept)."""
     out = {}
-    ref = model.read_bytes()
     for tag, name in ALTERNATIVES.items():
         p = model.parent / name
-        if p.is_file() and p.resolve() != model.resolve() and p.read_bytes() != ref:
+        if p.is_file() and p.resolve() != model.resolve() and not _same_model(p, model):
             out[tag] = p
     return out
 
 
-def _best_per_scale_factor(model: Path) -> dict:
-    """Per scale factor other than the chosen one, the settings of best validation score in the
-    model's JSON (``validation`` table of the selection rule): ``{sf: CascadeDetector kwargs}``."""
+def _identical_alternatives(model: Path) -> list[str]:
+    """File names of the ``ALTERNATIVES`` that are the default model (same XML and settings)."""
+    return [name for name in ALTERNATIVES.values()
+            if (model.parent / name).is_file() and (model.parent / name).resolve() != model.resolve()
+            and _same_model(model.parent / name, model)]
+
+
+def _default_id(model: Path) -> dict:
+    """What the default's score rows carry to say which model they are: ``model`` (file name),
+    ``settings`` (window, scale factor, ``min_neighbors``, size exponent, grid) and
+    ``identical_to`` (the ``ALTERNATIVES`` equal to it, comma-separated; None if none)."""
+    from seawatch.detect.cascade import CascadeDetector
+
+    return {"model": model.name, "settings": _settings(CascadeDetector(model)),
+            "identical_to": ",".join(_identical_alternatives(model)) or None}
+
+
+def _validation_source(model: Path, candidates) -> Path | None:
+    """The JSON whose ``validation`` table stands for ``model``'s: its own, else that of the first
+    of ``candidates`` with the same cascade (XML bytes) that has one (v6s15's JSON, assembled by
+    session 15's rule, has none; v6's, same cascade, has)."""
     import json
 
-    p = model.with_suffix(".json")
-    if not p.is_file():
+    for mp in [model, *candidates]:
+        p = mp.with_suffix(".json")
+        if mp != model and (not mp.is_file() or mp.read_bytes() != model.read_bytes()):
+            continue
+        if p.is_file() and json.loads(p.read_text()).get("validation"):
+            return p
+    return None
+
+
+def _best_per_scale_factor(model: Path, candidates=()) -> dict:
+    """Per scale factor other than the model's own, the settings of best validation score in the
+    ``validation`` table (selection rule) of the model's JSON or, when it has none, of a candidate
+    with the same cascade (:func:`_validation_source`): ``{sf: CascadeDetector kwargs}``."""
+    import json
+
+    src = _validation_source(model, candidates)
+    if src is None:
         return {}
-    meta = json.loads(p.read_text())
-    table, chosen = meta.get("validation") or {}, (meta.get("detector") or {}).get("scale_factor")
+    table = json.loads(src.read_text()).get("validation") or {}
+    chosen = (_detector_block(model) or {}).get("scale_factor")
     out = {}
     for key, row in table.items():
         m = re.fullmatch(r"sf([\d.]+)_mn(\d+)_exp([\d.]+)", key)
