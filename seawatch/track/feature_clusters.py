@@ -810,7 +810,7 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
         return None, contrast, False
     if waterline_frac > 0 or wake_frac > 0:
-        nx0, ny0, nx1, ny1 = _trim_object(dev, np.isin(lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
+        nx0, ny0, nx1, ny1 = _trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                           waterline_frac, wake_frac, trail)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
@@ -845,14 +845,14 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
-    from its background, ``sel`` the object's foreground mask."""
+    from its background, ``sel`` the object's foreground mask, or ``(labels, object's labels)``."""
     x0, y0, x1, y1 = (int(v) for v in ext)
     if waterline_frac > 0 and y1 - y0 >= 3:
         rows = np.median(dev[y0:y1, x0:x1], axis=1)
         strong = np.flatnonzero(rows >= waterline_frac * rows.max())
         y1 = y0 + int(strong[-1]) + 1
     if wake_frac > 0 and trail != 0 and x1 - x0 >= 3:
-        m = sel[y0:y1, x0:x1]
+        m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
         # each column's height: from its top foreground pixel down to the object's bottom
         ext = np.where(m.any(axis=0), (y1 - y0) - np.argmax(m, axis=0), 0)
         ref = np.percentile(ext[ext > 0], 75) if (ext > 0).any() else 0.0
