@@ -435,16 +435,21 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
         description=(
             "Train a boosted cascade of Haar stumps (Gentle AdaBoost, hard-negative mining, an optional\n"
             "last wake stage) and write it in OpenCV's cascade XML, with a JSON beside it (box convention,\n"
-            "training record). Default: seawatch's boat cascade from --data (MarDCT training frames,\n"
+            "training record). Default: seawatch's boat cascade recipe from --data (MarDCT training frames,\n"
             "CORAL D1, simulator frames; MarDCT video2 is never used), with min_neighbors chosen on a\n"
             "validation part. With --frames DIR: train on annotated frames <name>.png + <name>.txt\n"
-            "('label x y w h' per line) from DIR instead."
+            "('label x y w h' per line) from DIR instead. --out is required; a model shipped in\n"
+            "seawatch/models/ is overwritten only with --force (seawatch/models/PROVENANCE.md gives\n"
+            "the commands that reproduce each shipped model)."
         ),
         formatter_class=_formatter,
     )
     p.add_argument("--data", type=Path, help="data directory (default: ../shared/data beside the repository)")
     p.add_argument("--frames", type=Path, help="train on the annotated frames in this folder instead")
-    p.add_argument("--out", type=Path, default=None, help="output XML (default: seawatch/models/boat_cascade.xml)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="output XML, required, e.g. /tmp/cv/boat_cascade.xml (its JSON is written beside it)")
+    p.add_argument("--force", action="store_true",
+                   help="allow --out to overwrite a model shipped in seawatch/models/ (refused without it)")
     p.add_argument("--stages", type=int, default=20, help="maximum number of stages before the wake stage (20)")
     p.add_argument("--min-hit-rate", type=float, default=0.995, help="per-stage minimum hit rate (0.995)")
     p.add_argument("--max-false-alarm", type=float, default=0.5, help="per-stage maximum false-alarm rate (0.5)")
@@ -515,13 +520,23 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         lowres_prob=args.lowres_prob, scan_mining_stages=args.scan_mining_stages,
     )
     out = args.out
+    if out is None:
+        raise CLIError("--out is required: the output XML, e.g. --out /tmp/cv/boat_cascade.xml (a path outside "
+                       "seawatch/models/, whose boat_cascade.xml is the shipped default)")
+    from seawatch.detect.cascade import default_model_path
+
+    shipped = default_model_path().parent.resolve()
+    out_r = Path(out).resolve()
+    if (shipped in out_r.parents and not args.force
+            and any(q.exists() for q in (out_r, out_r.with_suffix(".json")))):
+        raise CLIError(f"--out {out}: would overwrite a model shipped in {shipped} "
+                       f"({'its JSON' if args.select_only else 'XML and JSON'}); give another path, e.g. "
+                       f"/tmp/cv/{out_r.name}, or --force")
     command = "seawatch " + " ".join(sys.argv[1:])
     if args.frames is not None:
         from seawatch.train.samples import load_mardct_frames
         from seawatch.train.trainer import train_cascade
 
-        if out is None:
-            raise CLIError("--frames needs --out (the shipped model is trained with --data)")
         images = load_mardct_frames(args.frames)
         if not images:
             raise CLIError(f"--frames {args.frames}: no annotated <name>.png + <name>.txt pairs")
@@ -533,9 +548,6 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
     data = args.data if args.data is not None else default_data_dir()
     if data is None or not Path(data).is_dir():
         raise CLIError("no data directory: give --data DIR (the layout of ../shared/data)")
-    if out is None:
-        from seawatch.detect.cascade import default_model_path
-        out = default_model_path()
     if args.select_only:
         from seawatch.train.recipe import reselect_model
 
