@@ -460,7 +460,7 @@ class StableFeatureExtractor:
         below which the window is too flat or too edge-like to follow.
     hold_s : float
         Stability kept through a short miss (not in the paper, where an unmatched feature
-        always loses one; stop 15; 0 turns it off): an active feature that no keypoint matches
+        always loses one; stop 15; default 0.2 s, 0 turns it off): an active feature that no keypoint matches
         in a frame, but that Lucas-Kanade follows from its last position (started where the
         camera motion carries it, converging within ``subpixel_max_px`` of there, with the
         window's gradient test ``subpixel_min_eig``), keeps its confidence instead of losing
@@ -474,7 +474,8 @@ class StableFeatureExtractor:
         Largest mean absolute grey-level difference between the feature's window in the last
         frame and the followed window in this one (OpenCV's LK error) for it to be held: the
         gradient test looks at the last frame only, so a window whose texture has gone (the
-        sea's texture changed, the object left) still converges.  ``inf``: no limit.
+        sea's texture changed, the object left) still converges.  Default 10 grey levels;
+        ``inf``: no limit.
     hold_velocity : bool
         Whether a held feature's followed position gives a velocity sample (True) or only
         moves it (False).
@@ -524,9 +525,9 @@ class StableFeatureExtractor:
         band_min_size_px: float = 0.0,
         guided_min_quality: float = 0.25,
         dedup_px: float = 3.0,
-        hold_s: float = 0.0,
+        hold_s: float = 0.2,
         hold_min_confidence: int = 1,
-        hold_max_err: float = float("inf"),
+        hold_max_err: float = 10.0,
         hold_velocity: bool = True,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
