@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import json
+import shutil
 from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
+from seawatch.detect.cascade import CascadeDetector
 from seawatch.train.samples import LabelledImage
-from seawatch.train.scanstats import (choose_speed_setting, played_cpu_s, played_sequences, played_speed_settings,
-                                      speed_settings)
+from seawatch.train.scanstats import (OWN_SETTINGS_KEYS, choose_speed_setting, played_cpu_s, played_sequences,
+                                      played_speed_settings, speed_settings, write_speed_rule_json)
+from seawatch.train.scanstats import main as scanstats_main
 from seawatch.train.synthetic import boat_scene
 
 V6 = Path(__file__).resolve().parent.parent / "seawatch" / "models" / "boat_cascade_v6.xml"
@@ -107,3 +112,54 @@ def test_played_rule_needs_the_margin_not_only_the_target():
     r2 = played_speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=0.0, margin_fps=fastest * 100,
                                size=(352, 288), passes=1, log=lambda *a: None)
     assert r2["chosen"] is None and r2["margin_fps"] == fastest * 100
+
+
+MODELS = V6.parent
+
+
+def test_speed_rule_json_rebuilds_the_shipped_default_byte_for_byte(tmp_path):
+    # v6s15's JSON was assembled by hand in session 15: the writer, given v6's JSON and the
+    # rule's record as stored, gives the same bytes (and so the default's, its byte copy)
+    shipped = json.loads((MODELS / "boat_cascade_v6s15.json").read_text())
+    rule = {k: v for k, v in shipped["speed_selection"].items() if k not in ("command", "note")}
+    out = write_speed_rule_json(tmp_path / "boat_cascade_v6s15.json", V6, rule, shipped["speed_selection"]["command"])
+    assert out.read_bytes() == (MODELS / "boat_cascade_v6s15.json").read_bytes()
+    assert out.read_bytes() == (MODELS / "boat_cascade.json").read_bytes()
+
+
+def test_speed_rule_json_from_a_synthetic_rule_run(tmp_path):
+    parts = _clip_parts()
+    r = played_speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=0.0, margin_fps=0.0, size=(352, 288),
+                              passes=1, log=lambda *a: None)
+    v6 = json.loads(V6.with_suffix(".json").read_text())
+    out = write_speed_rule_json(tmp_path / "boat_cascade_test.json", V6, r, "the command")
+    got = json.loads(out.read_text())
+    c = r["chosen"]
+    assert got["detector"] == {**v6["detector"], "scale_factor": c["scale_factor"],
+                               "min_neighbors": c["min_neighbors"], "neighbors_size_exp": c["neighbors_size_exp"]}
+    assert got["detector"]["grid_step_px"] == 2  # kept from v6
+    assert got["speed_selection"]["candidates"] == json.loads(json.dumps(r["candidates"]))
+    assert got["speed_selection"]["command"] == "the command"
+    for k in OWN_SETTINGS_KEYS:
+        assert k in v6 and k not in got
+    assert got["stages"] == v6["stages"] and got["split"] == v6["split"]
+    assert "no training was run for test" in got["note_v6_keys"]
+    # the detector reads the written settings
+    shutil.copyfile(V6, out.with_suffix(".xml"))
+    d = CascadeDetector(out.with_suffix(".xml"))
+    assert (d.params.scale_factor, d.params.min_neighbors) == (c["scale_factor"], c["min_neighbors"])
+    # nothing chosen: nothing written
+    with pytest.raises(ValueError, match="chose no candidate"):
+        write_speed_rule_json(tmp_path / "none.json", V6, {**r, "chosen": None}, "c")
+    assert not (tmp_path / "none.json").exists()
+
+
+def test_write_json_needs_the_played_rule(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        scanstats_main(["--data", str(tmp_path), "--model", str(V6), "--what", "speedrule",
+                        "--write-json", str(tmp_path / "x.json")])
+    assert "--write-json needs --what playedrule" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        scanstats_main(["--data", str(tmp_path), "--model", str(tmp_path / "m.xml"), "--what", "playedrule",
+                        "--write-json", str(tmp_path / "x.json")])
+    assert "no JSON beside --model" in capsys.readouterr().err

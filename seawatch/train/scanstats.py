@@ -17,7 +17,8 @@ Two tools, both run on the recipe's split (:func:`seawatch.train.recipe.load_tra
   training and validation frames, and the choice;
 * :func:`played_speed_settings`: session 15's rule: the same candidates, their speed on the MarDCT
   training and validation frames played as video (horizon state kept within a sequence), and the
-  choice with a margin above the target.
+  choice with a margin above the target; :func:`write_speed_rule_json` (``--write-json PATH``)
+  writes the chosen candidate's model JSON (how the default v6s15 is reproduced, PROVENANCE.md).
 
 Command line::
 
@@ -35,7 +36,8 @@ import cv2
 import numpy as np
 
 __all__ = ["stage_pass_fractions", "region_check", "speed_compare", "speed_settings", "choose_speed_setting",
-           "horizon_check", "played_sequences", "played_cpu_s", "played_speed_settings", "played_compare"]
+           "horizon_check", "played_sequences", "played_cpu_s", "played_speed_settings", "played_compare",
+           "speed_rule_json", "write_speed_rule_json"]
 
 
 def stage_pass_fractions(model_xml: str | Path, images, scale_factor: float = 1.1, box_ratio_w: float = 0.7,
@@ -305,6 +307,72 @@ def played_speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1
             "passes": passes, "candidates": rows, "chosen": chosen}
 
 
+# keys of a trained model's JSON that describe its own choice of settings, left out of the JSON
+# of the same cascade at settings chosen by a speed rule (in this order in the note)
+OWN_SETTINGS_KEYS = ("validation", "heldout", "selection", "validation_by_grid", "validation_grid0",
+                     "validation_others")
+
+
+def speed_rule_json(model_xml: str | Path, rule: dict, command: str, name: str) -> dict:
+    """The JSON of ``model_xml``'s cascade at the settings a speed rule chose (how v6fast's and
+    v6s15's JSONs were made, session 14 and 15).
+
+    ``rule``: the output of :func:`played_speed_settings` (or :func:`speed_settings`) for this
+    model; ``command``: the command that ran it (stored); ``name``: the new model's tag (e.g.
+    ``"v6s15"``).  The result is the model's JSON with its ``detector`` block given the chosen
+    ``scale_factor``, ``min_neighbors`` and ``neighbors_size_exp`` (its other entries, e.g.
+    ``grid_step_px``, kept), the keys of ``OWN_SETTINGS_KEYS`` left out (they describe the
+    model's own choice), ``speed_selection`` (the rule's whole record: candidates, validation
+    scores, played speeds, choice, with ``command`` and a note) and ``note_<tag>_keys`` (what is
+    the original model's), where ``<tag>`` is the model's own tag (``boat_cascade_v6`` -> ``v6``).
+    Raises ValueError when the rule chose nothing or the model has no JSON.
+    """
+    xml = Path(model_xml)
+    meta_path = xml.with_suffix(".json")
+    if not meta_path.is_file():
+        raise ValueError(f"{meta_path}: no JSON beside the model (the training record to copy)")
+    chosen = rule.get("chosen")
+    if not chosen:
+        raise ValueError(f"the rule chose no candidate (none reached {rule.get('margin_fps', rule.get('target_fps'))} "
+                         "frames/s): no JSON to write")
+    meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    tag = xml.stem[len("boat_cascade_"):] if xml.stem.startswith("boat_cascade_") else xml.stem
+    dropped = [k for k in OWN_SETTINGS_KEYS if k in meta]
+    out = {k: v for k, v in meta.items() if k not in dropped}
+    det = dict(out.get("detector") or {})
+    det.update({"min_neighbors": int(chosen["min_neighbors"]), "scale_factor": float(chosen["scale_factor"]),
+                "neighbors_size_exp": float(chosen["neighbors_size_exp"])})
+    out["detector"] = det
+    out["speed_selection"] = {**rule, "command": command,
+                              "note": f"{tag}'s cascade (byte copy of {xml.name}) with the detector settings chosen "
+                                      f"by {_rule_name(rule)} (docs/cascade.md); {tag}'s training record is kept above"}
+    out[f"note_{tag}_keys"] = (
+        f"command, training_time_s, total_time_s and the training record (settings, stages, split, box "
+        f"calibration, ...) are {tag}'s: this file is {tag}'s JSON ({meta_path.name}) with new detector settings; "
+        f"no training was run for {name}. Dropped from {tag}'s JSON (they describe {tag}'s own settings): "
+        f"{', '.join(dropped)}; see PROVENANCE.md")
+    return out
+
+
+def _rule_name(rule: dict) -> str:
+    r = str(rule.get("rule", ""))
+    return {"session 15": "session 15's played-speed rule", "session 14": "session 14's speed rule"}.get(
+        r.split(" (")[0], r or "a speed rule")
+
+
+def write_speed_rule_json(path: str | Path, model_xml: str | Path, rule: dict, command: str,
+                          name: str | None = None) -> Path:
+    """Write :func:`speed_rule_json` to ``path`` (indent 1, a final newline, as the trainer
+    writes its JSONs); ``name`` defaults to the file's tag (``boat_cascade_v6s15.json`` ->
+    ``v6s15``).  The cascade XML to go beside it is a byte copy of ``model_xml``."""
+    path = Path(path)
+    if name is None:
+        name = path.stem[len("boat_cascade_"):] if path.stem.startswith("boat_cascade_") else path.stem
+    data = speed_rule_json(model_xml, rule, command, name)
+    path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
 def played_compare(before_commit: str, model_xml: str | Path, parts: dict, settings: dict | None = None,
                    sizes=((704, 576), None), passes: int = 3, repo: str | Path | None = None) -> dict:
     """The detector of ``seawatch/detect/cascade.py`` at ``before_commit`` against today's, on the
@@ -490,7 +558,15 @@ def main(argv=None) -> int:
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
     ap.add_argument("--before", default="7a40f93", help="with --what samecheck: the commit of the old cascade.py")
+    ap.add_argument("--write-json", type=Path, default=None, metavar="PATH",
+                    help="with --what playedrule: write the chosen candidate's model JSON here (the --model JSON "
+                         "with the chosen detector block and the rule's record; PROVENANCE.md), e.g. "
+                         "/tmp/cv/boat_cascade_v6s15.json; its XML is a byte copy of --model")
     a = ap.parse_args(argv)
+    if a.write_json is not None and "playedrule" not in {w.strip() for w in a.what.split(",")}:
+        ap.error("--write-json needs --what playedrule")
+    if a.write_json is not None and not a.model.with_suffix(".json").is_file():
+        ap.error(f"--write-json: no JSON beside --model {a.model}")
     from seawatch.train.recipe import load_training_data
 
     parts = load_training_data(a.data, use_sim=not a.no_sim, seed=0)
@@ -519,6 +595,22 @@ def main(argv=None) -> int:
     if "playedrule" in what:
         res["played_speed_settings"] = played_speed_settings(a.model, parts)
         print(json.dumps(res["played_speed_settings"], indent=1))
+        if a.write_json is not None:
+            import os
+            import sys
+
+            from seawatch.eval.bench import _git_commit
+
+            env = " ".join(f"{k}={os.environ[k]}" for k in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS") if k in os.environ)
+            cmd = ((env + " " if env else "") + "python -m seawatch.train.scanstats "
+                   + " ".join(sys.argv[1:] if argv is None else argv)
+                   + f" (commit {_git_commit(Path(__file__).resolve().parents[2])})")
+            try:
+                write_speed_rule_json(a.write_json, a.model, res["played_speed_settings"], cmd)
+                print(f"wrote {a.write_json}")
+            except ValueError as exc:
+                print(f"--write-json: {exc}")
+                return 1
     if a.out:
         a.out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
     return 0
