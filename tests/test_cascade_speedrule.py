@@ -163,3 +163,28 @@ def test_write_json_needs_the_played_rule(tmp_path, capsys):
         scanstats_main(["--data", str(tmp_path), "--model", str(tmp_path / "m.xml"), "--what", "playedrule",
                         "--write-json", str(tmp_path / "x.json")])
     assert "no JSON beside --model" in capsys.readouterr().err
+
+
+def test_both_rules_start_from_the_same_candidates():
+    from seawatch.train.scanstats import _rule_candidates
+
+    parts = _clip_parts()
+    img, boxes, _ = boat_scene(50, 320, 240, n_boats=1, boat_w_px=(40.0, 60.0), horizon_px=70.0)
+    parts["train"].append(LabelledImage("coral_x", "coral", boxes, image=img))
+    best, ims, dets = _rule_candidates(V6, parts, (1.2, 1.5), log=lambda *a: None)
+    assert sorted(best) == sorted(dets) == [1.2, 1.5]
+    # the MarDCT training and validation images only: not CORAL, never the held-out part
+    assert [im.name for im in ims] == [im.name for im in parts["train"][:-1] + parts["val"]]
+    for sf, d in dets.items():
+        b = best[sf]
+        assert (d.params.scale_factor, d.params.min_neighbors, d.params.neighbors_size_exp) == (
+            b["scale_factor"], b["min_neighbors"], b["neighbors_size_exp"])
+        assert d.params.grid_step_px == 2  # v6's grid, from its JSON
+    # the two rules report these very candidates
+    r = played_speed_settings(V6, parts, scale_factors=(1.2, 1.5), margin_fps=0.0, size=(176, 144), passes=1,
+                              log=lambda *a: None)
+    r14 = speed_settings(V6, parts, scale_factors=(1.2, 1.5), target_fps=0.0, size=(176, 144), passes=1,
+                         log=lambda *a: None)
+    for rr in (r, r14):
+        assert [(c["scale_factor"], c["min_neighbors"], c["score"]) for c in rr["candidates"]] == [
+            (sf, best[sf]["min_neighbors"], best[sf]["score"]) for sf in sorted(best)]

@@ -164,14 +164,8 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
 
     Never MarDCT video2, never the held-out part.
     """
-    from seawatch.detect.cascade import CascadeDetector
-
-    cv2.setNumThreads(1)
-    best = _best_per_scale_factor(model_xml, parts, scale_factors, log)
-    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    best, ims, dets = _rule_candidates(model_xml, parts, scale_factors, log)
     greys = _stills(ims, size)
-    dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
-                                neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
     tps = _interleaved_cpu_s(dets, greys, passes)
     ts = {sf: [t for p in v for t in p] for sf, v in tps.items()}
     per_pass = {sf: [round(1.0 / float(np.median(p)), 2) for p in v] for sf, v in tps.items()}
@@ -186,6 +180,21 @@ def speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1, 1.2, 
     log(f"  chosen: {chosen}")
     return {"rule": "session 14 (docs/cascade.md)", "size": f"{size[0]}x{size[1]}", "target_fps": target_fps,
             "speed_frames": len(greys), "passes": passes, "candidates": rows, "chosen": chosen}
+
+
+def _rule_candidates(model_xml, parts: dict, scale_factors, log) -> tuple[dict, list, dict]:
+    """The common start of the speed rules of sessions 14 and 15 (one OpenCV thread): the
+    candidates (:func:`_best_per_scale_factor`), the MarDCT training and validation images their
+    speed is measured on (never the held-out part) and a detector per candidate:
+    ``(best, images, {scale_factor: CascadeDetector})``."""
+    from seawatch.detect.cascade import CascadeDetector
+
+    cv2.setNumThreads(1)
+    best = _best_per_scale_factor(model_xml, parts, scale_factors, log)
+    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
+                                neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
+    return best, ims, dets
 
 
 def _best_per_scale_factor(model_xml, parts: dict, scale_factors, log) -> dict:
@@ -282,14 +291,8 @@ def played_speed_settings(model_xml: str | Path, parts: dict, scale_factors=(1.1
 
     Never MarDCT video2, never the held-out part.
     """
-    from seawatch.detect.cascade import CascadeDetector
-
-    cv2.setNumThreads(1)
-    best = _best_per_scale_factor(model_xml, parts, scale_factors, log)
-    ims = [im for im in parts["train"] + parts["val"] if im.source == "mardct"]
+    best, ims, dets = _rule_candidates(model_xml, parts, scale_factors, log)
     seqs = played_sequences(ims, size, seq_len)
-    dets = {sf: CascadeDetector(model_xml, scale_factor=b["scale_factor"], min_neighbors=b["min_neighbors"],
-                                neighbors_size_exp=b["neighbors_size_exp"]) for sf, b in best.items()}
     tps = played_cpu_s(dets, seqs, passes)
     rows = []
     for sf, b in sorted(best.items()):
