@@ -62,3 +62,44 @@ def test_level_plan_follows_the_scale_factor_and_grid():
     det.params.grid_step_px = 0
     assert any(lv[4] == 1 for lv in det._level_plan(320, 240))  # OpenCV's 1 px grid from scale 2 on
     assert det._levels(320, 240) == [lv[:4] for lv in det._level_plan(320, 240)]
+
+
+@pytest.mark.parametrize("size,sf", [((120, 90), 1.1), ((120, 90), 1.3), ((176, 144), 1.3), ((150, 101), 1.1)])
+def test_stripe_limit_matches_opencvs_scanned_windows(tmp_path, size, sf):
+    """OpenCV cuts each level's rows into stripes sized from the first level's width; with a 2 px
+    step the level's last row can fall outside every stripe and is never scanned.  A cascade that
+    accepts every window shows the scanned grid itself: the per-level scans (the plan's first row
+    not scanned, ``y_end``) must give exactly ``detectMultiScale2``'s raw windows.  At these sizes
+    and scale factors one level has ``y_end`` below its last grid row (checked below), so scanning
+    to the level's end instead adds windows.
+
+    Two differences from OpenCV, outside the stripe rule, are applied to seawatch's windows here
+    (they show only on windows at the image's right or bottom edge and on levels whose window is
+    larger than the image, which the real cascades rarely accept): OpenCV clips each window to the
+    image (``rect & Rect(0, 0, w, h)``) and stops at a level whose window exceeds the image
+    (``maxSize`` defaults to the image size)."""
+    from seawatch.train.haar import generate_features
+    from seawatch.train.model import Cascade, Stage, write_cascade_xml
+
+    feats = generate_features(30, 15, kinds=("x2",), pos_step_px=4, size_step_px=4)
+    accept = Cascade(30, 15, feats, [Stage(-1e9, [0], [0.0], [0.0], [0.0])])
+    xml = write_cascade_xml(accept, tmp_path / "accept.xml")
+    det = CascadeDetector(xml, scale_factor=sf, grid_step_px=0, neighbors_size_exp=0.0)
+    det.params.min_neighbors = 0  # raw windows, no grouping
+    w_img, h_img = size
+    img = np.random.default_rng(7).integers(0, 256, (h_img, w_img), dtype=np.uint8)  # no flat window
+    plan = det._level_plan(w_img, h_img)
+    cut = [lv for lv in plan if lv[5] < lv[2][1] + 1 - 15]
+    assert cut  # the case the rule is about is present
+    ref, _ = det.classifier.detectMultiScale2(img, scaleFactor=sf, minNeighbors=0, minSize=(30, 15))
+    ref = sorted(map(tuple, np.asarray(ref).reshape(-1, 4).tolist()))
+    got, _ = det.scan_region_windows(img, None)
+    got = got.astype(int)
+    got = got[(got[:, 2] <= w_img) & (got[:, 3] <= h_img)]
+    x2, y2 = np.minimum(got[:, 0] + got[:, 2], w_img), np.minimum(got[:, 1] + got[:, 3], h_img)
+    got = sorted(map(tuple, np.stack([got[:, 0], got[:, 1], x2 - got[:, 0], y2 - got[:, 1]], 1).tolist()))
+    assert len(ref) > 1000 and got == ref
+    # the windows of a cut level stop above its y_end: its last grid row has none
+    f32, win, y_end = cut[0][1], cut[0][3], cut[0][5]
+    rows = {int(np.rint(np.float32(y) / f32)) for (x, y, w, h) in ref if w == win[0] and x + w < w_img}
+    assert rows and max(rows) < y_end <= max(rows) + 2

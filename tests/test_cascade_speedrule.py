@@ -188,3 +188,30 @@ def test_both_rules_start_from_the_same_candidates():
     for rr in (r, r14):
         assert [(c["scale_factor"], c["min_neighbors"], c["score"]) for c in rr["candidates"]] == [
             (sf, best[sf]["min_neighbors"], best[sf]["score"]) for sf in sorted(best)]
+
+
+def test_played_timing_rotates_the_order_of_the_candidates():
+    log = []
+
+    class _Named:
+        def __init__(self, name):
+            self.name = name
+
+        def reset(self):
+            log.append((self.name, "reset"))
+
+        def detect(self, frame):
+            log.append((self.name, frame.index))
+
+    seqs = [[np.zeros((8, 8), np.uint8)] * 3, [np.zeros((8, 8), np.uint8)] * 2]
+    out = played_cpu_s({k: _Named(k) for k in "abc"}, seqs, passes=2)
+    assert all([len(p) for p in out[k]] == [5, 5] for k in "abc")
+    calls = [e for e in log if e[1] != "reset"]
+    assert calls[:3] == [("a", 0), ("b", 0), ("c", 0)]  # one warm-up call each
+    played = calls[3:]
+    assert len(played) == 3 * 5 * 2
+    orders = ["".join(n for n, _ in played[i:i + 3]) for i in range(0, len(played), 3)]
+    # frame by frame the first candidate moves on, across sequences and passes
+    assert orders == ["abc", "bca", "cab"] * 3 + ["abc"]
+    for i in range(0, len(played), 3):  # the three calls of a step are on the same frame
+        assert len({f for _, f in played[i:i + 3]}) == 1
