@@ -53,8 +53,8 @@ class DetectorSettings:
     detection_width_px: int = 0  # 0: automatic
     horizon_filter: bool = True
     reflection_filter: bool = True
-    cascade_min_neighbors: int = 0  # 0: the value chosen on validation data, stored with the model
-    cascade_scale_factor: float = 0.0  # 0: the value chosen on validation data, stored with the model
+    cascade_min_neighbors: int = 0  # 0: the model's, in its JSON (default model: best on validation at its scale factor)
+    cascade_scale_factor: float = 0.0  # 0: the model's, in its JSON (default model: from session 15's speed rule)
     canny_prune: bool = True  # drop cascade windows with too few Canny edge pixels
     horizon_tau_s: float = 0.5  # time constant of the horizon line's smoothing
     water_roi: bool = True  # with the horizon filter, scan only below the horizon line

@@ -62,8 +62,8 @@ def load_model_meta(model_path: str | Path) -> dict:
 class CascadeParams:
     """Settings of :class:`CascadeDetector` (see ``DetectorSettings`` in :mod:`seawatch.config`)."""
 
-    scale_factor: float = 0.0  # 0: the value chosen on validation data, stored beside the model (else 1.1)
-    min_neighbors: int = 0  # 0: the value chosen on validation data, stored beside the model (else 3)
+    scale_factor: float = 0.0  # 0: the model's, stored beside it (default model: session 15's speed rule; else 1.1)
+    min_neighbors: int = 0  # 0: the model's, stored beside it (best on validation at its scale factor; else 3)
     # a window of w detection pixels needs min_neighbors * (w / window width) ** neighbors_size_exp
     # neighbours (larger boats gather many more); -1: the model's value (else 0)
     neighbors_size_exp: float = -1.0
