@@ -151,3 +151,45 @@ def test_without_hold_velocity_a_held_feature_moves_but_gives_no_velocity_sample
         snaps[hv] = np.array([after.velocity[ia[i]] for i in held])
     assert np.isfinite(snaps[True]).all() and np.all(snaps[True][:, 0] > 0)
     assert np.isnan(snaps[False]).all()
+
+
+@pytest.mark.parametrize("band_only", [True, False])
+def test_with_a_horizon_only_the_water_bands_features_are_held_by_default(band_only):
+    from seawatch.detect.horizon import Horizon
+
+    img = _blobs(seed=8, n=90)
+    hz = Horizon(70.0, 70.0, W)  # the band: rows 64 (6 px above) to the bottom
+    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_band_only=band_only)
+    for k in range(6):
+        before = ext.process(img.astype(np.uint8), k / FPS, horizon=hz)
+    _miss(ext)
+    after = ext.process(img.astype(np.uint8), 6 / FPS, horizon=hz)
+    ia = _by_id(after)
+    held = {"sky": [], "band": []}
+    for k in np.flatnonzero(before.stable):
+        i = int(before.ids[k])
+        y = before.xy[k, 1]
+        side = "sky" if y < 60 else ("band" if y > 68 else None)
+        if side:
+            held[side].append(i in ia and after.confidence[ia[i]] == before.confidence[k])
+    assert len(held["sky"]) >= 5 and len(held["band"]) >= 5
+    assert np.mean(held["band"]) > 0.9
+    assert np.mean(held["sky"]) == (0.0 if band_only else 1.0)
+    assert StableFeatureExtractor().hold_band_only and StableFeatureExtractor().hold_s == 0.2
+
+
+def test_hold_levels_is_lucas_kanades_pyramid_depth_and_the_image_alone_by_default():
+    """With the image alone (0 levels) a feature is held after a small move; a move beyond
+    ``subpixel_max_px`` is not followed (the hold refuses it) at any depth."""
+    img = _blobs(seed=9)
+    assert StableFeatureExtractor().hold_levels == 0
+    for levels in (0, 1):
+        for dx, expect in ((2, True), (6, False)):
+            ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_levels=levels)
+            before, n = _settle(ext, img)
+            _miss(ext)
+            after = ext.process(_shift(img, dx, 0), n / FPS)
+            ia = _by_id(after)
+            st = [int(before.ids[k]) for k in np.flatnonzero(before.stable)]
+            held = np.mean([i in ia and after.confidence[ia[i]] == before.confidence[_by_id(before)[i]] for i in st])
+            assert (held > 0.8) if expect else (held < 0.1), (levels, dx, held)
