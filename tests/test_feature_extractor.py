@@ -154,12 +154,12 @@ def test_without_hold_velocity_a_held_feature_moves_but_gives_no_velocity_sample
 
 
 @pytest.mark.parametrize("band_only", [True, False])
-def test_with_a_horizon_only_the_water_bands_features_are_held_by_default(band_only):
+def test_with_a_horizon_only_the_water_bands_features_are_held_when_the_hold_is_on(band_only):
     from seawatch.detect.horizon import Horizon
 
     img = _blobs(seed=8, n=90)
     hz = Horizon(70.0, 70.0, W)  # the band: rows 64 (6 px above) to the bottom
-    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_band_only=band_only)
+    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_s=0.2, hold_band_only=band_only)
     for k in range(6):
         before = ext.process(img.astype(np.uint8), k / FPS, horizon=hz)
     _miss(ext)
@@ -175,7 +175,7 @@ def test_with_a_horizon_only_the_water_bands_features_are_held_by_default(band_o
     assert len(held["sky"]) >= 5 and len(held["band"]) >= 5
     assert np.mean(held["band"]) > 0.9
     assert np.mean(held["sky"]) == (0.0 if band_only else 1.0)
-    assert StableFeatureExtractor().hold_band_only and StableFeatureExtractor().hold_s == 0.2
+    assert StableFeatureExtractor().hold_band_only and StableFeatureExtractor().hold_s == 0.0
 
 
 def test_hold_levels_is_lucas_kanades_pyramid_depth_and_the_image_alone_by_default():
@@ -185,7 +185,7 @@ def test_hold_levels_is_lucas_kanades_pyramid_depth_and_the_image_alone_by_defau
     assert StableFeatureExtractor().hold_levels == 0
     for levels in (0, 1):
         for dx, expect in ((2, True), (6, False)):
-            ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_levels=levels)
+            ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_s=0.2, hold_levels=levels)
             before, n = _settle(ext, img)
             _miss(ext)
             after = ext.process(_shift(img, dx, 0), n / FPS)
