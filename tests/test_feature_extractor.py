@@ -193,3 +193,20 @@ def test_hold_levels_is_lucas_kanades_pyramid_depth_and_the_image_alone_by_defau
             st = [int(before.ids[k]) for k in np.flatnonzero(before.stable)]
             held = np.mean([i in ia and after.confidence[ia[i]] == before.confidence[_by_id(before)[i]] for i in st])
             assert (held > 0.8) if expect else (held < 0.1), (levels, dx, held)
+
+
+def test_hold_levels_reaches_lucas_kanade_a_pyramid_follows_a_move_the_image_alone_does_not():
+    """An 8 px move with a 14 px convergence limit: the image alone (0 levels) loses most of the
+    features, one pyramid level follows most of them, so ``hold_levels`` is OpenCV's depth."""
+    img = _blobs(seed=9)
+    held = {}
+    for levels in (0, 1):
+        ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0, hold_s=0.2, hold_levels=levels,
+                                     subpixel_max_px=14)
+        before, n = _settle(ext, img)
+        _miss(ext)
+        after = ext.process(_shift(img, 8, 0), n / FPS)
+        ia, ib = _by_id(after), _by_id(before)
+        st = [int(before.ids[k]) for k in np.flatnonzero(before.stable)]
+        held[levels] = np.mean([i in ia and after.confidence[ia[i]] == before.confidence[ib[i]] for i in st])
+    assert held[1] > 0.7 and held[0] < 0.4, held
