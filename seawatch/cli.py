@@ -467,6 +467,11 @@ def _add_train_cascade(sub) -> None:  # owner: cascade trainer
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("--lowres-prob", type=float, default=0.5,
                    help="share of augmented positives rendered as far boats of about 20-50 px (0.5)")
+    p.add_argument("--scale-jitter", type=float, default=0.08,
+                   help="augmented positives: window scale drawn log-uniformly in +-this (natural log) (0.08)")
+    p.add_argument("--shift-jitter", type=float, default=0.06,
+                   help="augmented positives: centre shifted by up to +-this share of the window's width and "
+                        "height (0.06)")
     p.add_argument("--scan-mining-stages", type=int, default=0,
                    help="the first N stages take their negatives from every window the detector scans on the "
                         "training images (automatic detection scale, pyramid, water region) (0)")
@@ -500,6 +505,10 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         raise CLIError(f"--early-weak-counts {args.early_weak_counts!r}: expected integers like 4,8,16") from None
     if not 0.0 <= args.lowres_prob <= 1.0:
         raise CLIError(f"--lowres-prob {args.lowres_prob}: expected a probability in [0, 1]")
+    if not 0.0 <= args.scale_jitter <= 1.0:
+        raise CLIError(f"--scale-jitter {args.scale_jitter}: expected a log-scale half-range in [0, 1]")
+    if not 0.0 <= args.shift_jitter <= 0.5:
+        raise CLIError(f"--shift-jitter {args.shift_jitter}: expected a share of the window in [0, 0.5]")
     if args.feature_step_px < 1:
         raise CLIError(f"--feature-step-px {args.feature_step_px}: at least 1")
     if args.scan_mining_stages < 0:
@@ -518,6 +527,7 @@ def _cmd_train_cascade(args) -> int:  # owner: cascade trainer
         features_per_stage=args.features_per_stage, max_positives=args.max_positives,
         wake_stage=not args.no_wake_stage, time_budget_s=args.time_budget_s, seed=args.seed,
         lowres_prob=args.lowres_prob, scan_mining_stages=args.scan_mining_stages,
+        scale_jitter=args.scale_jitter, shift_jitter=args.shift_jitter,
     )
     out = args.out
     if out is None:

@@ -117,6 +117,8 @@ def test_gentle_adaboost_stage_learns_a_separable_problem():
 def test_trainer_learns_synthetic_boats(trained):
     cascade, record, xml = trained
     assert cascade.n_stages >= 3
+    # the augmentation's jitter is recorded (the model's JSON holds this record)
+    assert (record["settings"]["scale_jitter"], record["settings"]["shift_jitter"]) == (0.08, 0.06)
     assert record["wake_stage"]["n_weak"] >= 1
     # unseen scenes: boats found, few false windows
     images = _synthetic_images(6, 500)

@@ -64,6 +64,10 @@ class TrainSettings:
     # lowres_window_px wide (boats of about 20-50 px), median 3x3, upscaled to the window
     lowres_prob: float = 0.5
     lowres_window_px: tuple[float, float] = (28.0, 60.0)
+    # augmented positives (all but the first copy of each box): window scale drawn log-uniformly in
+    # +-scale_jitter, centre shifted uniformly by up to +-shift_jitter of the window's width / height
+    scale_jitter: float = 0.08
+    shift_jitter: float = 0.06
     max_positives: int = 6000
     neg_per_pos: float = 2.0
     neg_per_crop: int = 12
@@ -126,6 +130,7 @@ def collect_positives(images: list[LabelledImage], s: TrainSettings, rng: np.ran
         g = im.grey()
         wins = box_to_window(b, aspect, s.margin)
         out.append(extract_windows(g, wins, size, rng, n_aug=int(s.n_aug.get(im.source, 4)),
+                                   scale_jitter=s.scale_jitter, shift_jitter=s.shift_jitter,
                                    lowres_prob=s.lowres_prob, lowres_window_px=tuple(s.lowres_window_px)))
         src += [im.source] * len(out[-1])
     if not out:
