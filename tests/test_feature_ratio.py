@@ -1,0 +1,96 @@
+"""The stable-feature extractor's ratio test with a second neighbour at a distinct place
+(``ratio_distinct_px``, stop 16; not in the paper)."""
+
+import numpy as np
+import pytest
+
+from seawatch.detect.features import StableFeatureExtractor
+
+FPS = 25.0
+
+
+def _desc(rng, n):
+    d = rng.uniform(0, 60, (n, 128)).astype(np.float32)
+    return d
+
+
+def _with_active(ext, xy, desc):
+    """Put active features at ``xy`` with descriptors ``desc`` (no camera motion, full scale)."""
+    ext.reset()
+    ext._grow(len(xy))
+    n = len(xy)
+    ext._alive[:n] = True
+    ext._ids[:n] = np.arange(n)
+    ext._xy[:n] = xy
+    ext._desc[:n] = desc
+    ext._conf[:n] = 3
+    ext._h_prev = np.eye(3)
+    ext._scale = 1.0
+    return np.flatnonzero(ext._alive)
+
+
+def _case(rng, gap_px):
+    """Feature A at (50, 50), a look-alike of it ``gap_px`` to the right, and two unlike
+    features far away; the query keypoint is A, seen again (descriptor a little noisy)."""
+    base = _desc(rng, 3)
+    twin = base[0] + rng.normal(0, 0.3, 128).astype(np.float32)
+    xy = np.array([[50.0, 50.0], [50.0 + gap_px, 50.0], [150.0, 90.0], [20.0, 120.0]])
+    desc = np.vstack([base[0], twin, base[1], base[2]])
+    q = (base[0] + rng.normal(0, 0.5, 128).astype(np.float32))[None]
+    return xy, desc, q, np.array([[50.3, 49.8]])
+
+
+@pytest.mark.parametrize("guided_px", [10.0, 0.0])
+def test_a_look_alike_a_pixel_away_fails_the_papers_ratio_test_but_not_the_distinct_one(guided_px):
+    rng = np.random.default_rng(0)
+    xy, desc, q, kxy = _case(rng, 1.0)
+    res = {}
+    for sep in (0.0, 3.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=guided_px, ratio_distinct_px=sep)
+        act = _with_active(ext, xy, desc)
+        radius = 20.0 if guided_px > 0 else 0.0
+        qi, si = ext._match(q, act, kxy, radius)
+        res[sep] = (qi.tolist(), si.tolist())
+    assert res[0.0] == ([], [])  # the twin a pixel away makes Q nearly 0: no match (the paper)
+    assert res[3.0] == ([0], [0])  # second neighbour beyond 3 px: an unlike feature, Q high: A
+
+
+@pytest.mark.parametrize("guided_px", [10.0, 0.0])
+def test_a_look_alike_at_a_distinct_place_still_fails_the_ratio_test(guided_px):
+    rng = np.random.default_rng(1)
+    xy, desc, q, kxy = _case(rng, 8.0)  # the twin 8 px away: a real ambiguity
+    for sep in (0.0, 3.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=guided_px, ratio_distinct_px=sep)
+        act = _with_active(ext, xy, desc)
+        qi, si = ext._match(q, act, kxy, 20.0 if guided_px > 0 else 0.0)
+        assert len(qi) == 0
+
+
+def test_the_distinct_place_is_measured_from_the_nearest_not_from_the_keypoint():
+    """A keypoint whose descriptor lies half-way between A and its look-alike a pixel away:
+    with a separation under that pixel the look-alike is a valid second neighbour (Q = 0, no
+    match); with 3 px it is left out and the match is made."""
+    rng = np.random.default_rng(2)
+    xy, desc, q, kxy = _case(rng, 1.0)
+    desc = desc.copy()
+    desc[1] = q[0]  # the twin is now exactly the query's descriptor
+    ext = StableFeatureExtractor(nominal_fps=FPS, ratio_distinct_px=0.5)
+    act = _with_active(ext, xy, desc)
+    assert len(ext._match(q, act, kxy, 20.0)[0]) == 1  # Q = 1 (S1 = 0)
+    # a keypoint between both, with a descriptor half-way: ambiguous at 0.5 px, not at 3 px
+    qm = 0.5 * (desc[0] + desc[1])[None]
+    assert len(ext._match(qm, act, kxy, 20.0)[0]) == 0
+    ext3 = StableFeatureExtractor(nominal_fps=FPS, ratio_distinct_px=3.0)
+    act = _with_active(ext3, xy, desc)
+    assert len(ext3._match(qm, act, kxy, 20.0)[0]) == 1
+
+
+def test_bad_ratio_distinct_px_is_refused():
+    with pytest.raises(ValueError, match="ratio_distinct_px"):
+        StableFeatureExtractor(ratio_distinct_px=-1.0)
+    with pytest.raises(ValueError, match="ratio_distinct_px"):
+        StableFeatureExtractor(ratio_distinct_px=float("nan"))
+
+
+def test_the_default_is_the_papers_test():
+    assert StableFeatureExtractor().ratio_distinct_px == 0.0
