@@ -1,5 +1,6 @@
-"""The stable-feature extractor's ratio test with a second neighbour at a distinct place
-(``ratio_distinct_px``, stop 16; not in the paper)."""
+"""The stable-feature extractor's stop-16 keywords (not in the paper): the ratio test with a
+second neighbour at a distinct place (``ratio_distinct_px``), and rows of context for the water
+band's detector (``band_margin_px``)."""
 
 import numpy as np
 import pytest
@@ -94,3 +95,63 @@ def test_bad_ratio_distinct_px_is_refused():
 
 def test_the_default_is_the_papers_test():
     assert StableFeatureExtractor().ratio_distinct_px == 0.0
+
+
+class _Horizon:
+    """A level sea horizon at row ``r`` (anything with ``row_at``)."""
+
+    def __init__(self, r):
+        self.r = float(r)
+
+    def row_at(self, x):
+        return np.full(np.shape(x), self.r)
+
+
+def _boats_at_the_horizon(row=99):
+    """Small bright blobs (far boats) sitting on the horizon of a flat grey scene."""
+    import cv2
+
+    img = np.full((240, 320), 100, np.uint8)
+    for x in range(20, 300, 40):
+        cv2.circle(img, (x, row), 2, 170, -1)
+    return img
+
+
+def test_the_band_pass_sees_boats_on_the_horizon_only_with_a_margin_of_context():
+    """CenSurE finds nothing within about its largest filter of an image's edge; the band starts
+    ``band_above_px`` (6) above the horizon, so a boat sitting on it is in the detector's blind
+    rows unless the detector is given rows of context above the band (``band_margin_px``)."""
+    img = _boats_at_the_horizon()
+    found = {}
+    for m in (0.0, 12.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, band_margin_px=m)
+        snap = ext.process(img, 0.0, horizon=_Horizon(100.0))
+        found[m] = snap.xy
+    assert len(found[0.0]) == 0
+    xy = found[12.0]
+    assert len(xy) >= 7
+    assert np.all(np.abs(xy[:, 1] - 99.0) <= 3.0)
+    # each of the 7 boats has a keypoint on it (CenSurE marks a 5 px blob about 3 px off its centre)
+    for x in range(20, 300, 40):
+        assert np.min(np.hypot(xy[:, 0] - x, xy[:, 1] - 99.0)) <= 4.0
+
+
+def test_the_margin_adds_no_keypoint_outside_the_band():
+    """Blobs in the margin's rows (above the band) are not the band's: the band pass keeps only
+    its own rows, and the main pass (a higher threshold) does not see these faint ones."""
+    import cv2
+
+    img = np.full((240, 320), 100, np.uint8)
+    for x in range(20, 300, 40):
+        cv2.circle(img, (x, 86), 2, 130, -1)  # 14 rows above the horizon, faint
+    for m in (0.0, 12.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, band_margin_px=m)
+        snap = ext.process(img, 0.0, horizon=_Horizon(100.0))
+        assert len(snap.xy) == 0
+    ext = StableFeatureExtractor(nominal_fps=FPS, band_margin_px=12.0, band_above_px=20.0)
+    assert len(ext.process(img, 0.0, horizon=_Horizon(100.0)).xy) >= 7  # in the band: found
+
+
+def test_bad_band_margin_is_refused():
+    with pytest.raises(ValueError, match="band_margin_px"):
+        StableFeatureExtractor(band_margin_px=-2.0)

@@ -465,6 +465,13 @@ class StableFeatureExtractor:
         glint nor the image's coastline takes it).  The rest of the image is searched as
         before.  Small far boats, which carry one or no keypoint otherwise, carry several.
         ``band_px`` 0 turns it off.
+    band_margin_px : float
+        Rows of context (source pixels) the water-band pass's detector sees above and below the
+        band (stop 16; its keypoints are still those inside the band).  CenSurE finds nothing
+        within about 1.4 times its largest filter size of an image's edge (22 px of the
+        upscaled band with ``star_max_size`` 16, 11 rows of the band at ``band_upscale`` 2), so
+        without it the band's top rows, from ``band_above_px`` above the horizon to about 5
+        px below it where the far boats sit, are blind.  0: no context (stop 15).
     band_describe_upscaled : bool
         Describe the band's keypoints on the upscaled copy instead of the band at the working
         resolution (False; no better on the tuning seeds and about 10 ms slower per 640x480 frame).
@@ -586,6 +593,7 @@ class StableFeatureExtractor:
         hold_band_only: bool = True,
         hold_levels: int = 0,
         ratio_distinct_px: float = 0.0,
+        band_margin_px: float = 0.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -645,6 +653,9 @@ class StableFeatureExtractor:
         if not ratio_distinct_px >= 0:
             raise ValueError(f"features: ratio_distinct_px must be >= 0, got {ratio_distinct_px}")
         self.ratio_distinct_px = float(ratio_distinct_px)
+        if not band_margin_px >= 0:
+            raise ValueError(f"features: band_margin_px must be >= 0, got {band_margin_px}")
+        self.band_margin_px = float(band_margin_px)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -772,14 +783,26 @@ class StableFeatureExtractor:
         crop = grey[y0:y1]
         if crop.shape[0] < 4:
             return empty
-        big = crop if up == 1 else cv2.resize(crop, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
+        # the detector sees ``band_margin_px`` more rows above and below (CenSurE finds nothing
+        # within about its largest filter of the image's edge), and keeps the band's keypoints
+        m = int(np.ceil(self.band_margin_px * self._scale))
+        d0, d1 = max(0, y0 - m), min(grey.shape[0], y1 + m)
+        dcrop = grey[d0:d1]
+        big = dcrop if up == 1 else cv2.resize(dcrop, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
         kps = self._band_star.detect(big)
         if not kps:
             return empty
-        xy = (_kp_xy(kps) + 0.5) / up - 0.5
-        xy[:, 1] += y0
+        kxy = _kp_xy(kps)
+        xy = (kxy + 0.5) / up - 0.5
+        xy[:, 1] += d0
         size = np.fromiter((k.size for k in kps), np.float64, len(kps)) / up
         resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
+        if m > 0:
+            row = np.floor(kxy[:, 1] / up) + d0  # the working-image row of each keypoint
+            inb = (row >= y0) & (row < y1)
+            xy, size, resp = xy[inb], size[inb], resp[inb]
+            if not len(xy):
+                return empty
         priority = self._priority(xy, pred, self.band_max_keypoints)
         keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
                                 self.band_grid_cells, priority)
