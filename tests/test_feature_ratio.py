@@ -155,3 +155,55 @@ def test_the_margin_adds_no_keypoint_outside_the_band():
 def test_bad_band_margin_is_refused():
     with pytest.raises(ValueError, match="band_margin_px"):
         StableFeatureExtractor(band_margin_px=-2.0)
+
+
+def _near_case(rng, gap_px, closer_to_twin):
+    """A at (50, 50) and a look-alike ``gap_px`` to the right; the keypoint lies on A with a
+    descriptor between both (a little nearer the look-alike when ``closer_to_twin``)."""
+    base = _desc(rng, 3)
+    twin = base[0] + rng.normal(0, 0.3, 128).astype(np.float32)
+    xy = np.array([[50.0, 50.0], [50.0 + gap_px, 50.0], [150.0, 90.0], [20.0, 120.0]])
+    desc = np.vstack([base[0], twin, base[1], base[2]])
+    w = 0.55 if closer_to_twin else 0.45  # Q = 1 - 0.45 / 0.55 = 0.18, under 0.25
+    q = ((1 - w) * base[0] + w * twin)[None].astype(np.float32)
+    return xy, desc, q, np.array([[50.4, 50.2]])
+
+
+@pytest.mark.parametrize("closer_to_twin", [False, True])
+def test_the_place_settles_an_ambiguous_match_when_one_candidate_is_there(closer_to_twin):
+    rng = np.random.default_rng(3)
+    xy, desc, q, kxy = _near_case(rng, 6.0, closer_to_twin)
+    off = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=0.0)
+    act = _with_active(off, xy, desc)
+    assert len(off._match(q, act, kxy, 20.0)[0]) == 0  # ambiguous: the paper's test refuses it
+    on = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=2.0)
+    act = _with_active(on, xy, desc)
+    qi, si = on._match(q, act, kxy, 20.0)
+    assert qi.tolist() == [0] and si.tolist() == [0]  # A, the one where the keypoint is
+
+
+def test_two_ambiguous_candidates_at_the_keypoint_stay_unmatched():
+    rng = np.random.default_rng(4)
+    xy, desc, q, kxy = _near_case(rng, 1.5, False)  # both within 2 px of the keypoint
+    on = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=2.0)
+    act = _with_active(on, xy, desc)
+    assert len(on._match(q, act, kxy, 20.0)[0]) == 0
+
+
+def test_an_unambiguous_candidate_elsewhere_is_not_replaced_by_the_near_one():
+    """The place only settles a failed ratio test: a keypoint whose descriptor clearly is C's
+    (far from the keypoint, within the search radius) is matched to C as before."""
+    rng = np.random.default_rng(5)
+    xy, desc, q, kxy = _near_case(rng, 6.0, False)
+    xy = xy.copy()
+    xy[2] = [60.0, 55.0]  # C within the guided radius
+    q = (desc[2] + rng.normal(0, 0.3, 128).astype(np.float32))[None]
+    on = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=2.0)
+    act = _with_active(on, xy, desc)
+    qi, si = on._match(q, act, kxy, 20.0)
+    assert si.tolist() == [2]
+
+
+def test_bad_near_resolve_is_refused():
+    with pytest.raises(ValueError, match="near_resolve_px"):
+        StableFeatureExtractor(near_resolve_px=-1.0)

@@ -267,6 +267,43 @@ def _best_two_distinct(desc, stored, act, qi, ai, pos, sep2, nn, dist):
             dist[q, 1] = d2s[k]
 
 
+@nb.njit(cache=True, nogil=True)
+def _near_resolve(desc, stored, act, qi, ai, pos, kxy, near2, amb, nn, dist):
+    """Where a query's ratio test fails, the candidates that make it ambiguous (squared
+    descriptor distance at most ``amb`` times the nearest's) are looked at: when exactly one of
+    them is expected within ``sqrt(near2)`` pixels of the query's position (``pos``:
+    (len(act), 2) expected positions, indexed like ``ai``), the position settles the ambiguity
+    and the query is matched to it (``nn[q, 0]`` set to it, ``dist[q, 1]`` to inf)."""
+    n = nn.shape[0]
+    cnt = np.zeros(n, np.int64)
+    pick = np.full(n, -1, np.int64)
+    pd2 = np.zeros(n, np.float32)
+    dim = desc.shape[1]
+    for k in range(len(qi)):
+        q = qi[k]
+        if nn[q, 0] < 0:
+            continue
+        a = ai[k]
+        dx = pos[a, 0] - kxy[q, 0]
+        dy = pos[a, 1] - kxy[q, 1]
+        if dx * dx + dy * dy > near2:
+            continue
+        s = act[a]
+        acc = 0.0
+        for c in range(dim):
+            d = np.float64(desc[q, c]) - np.float64(stored[s, c])
+            acc += d * d
+        if acc <= amb * np.float64(dist[q, 0]) + 1e-6:
+            cnt[q] += 1
+            pick[q] = a
+            pd2[q] = np.float32(acc)
+    for q in range(n):
+        if cnt[q] == 1:
+            nn[q, 0] = pick[q]
+            dist[q, 0] = pd2[q]
+            dist[q, 1] = np.inf
+
+
 def _kp_xy(kps) -> np.ndarray:
     """(N, 2) float64 positions of OpenCV keypoints (their float32 values, exactly)."""
     return cv2.KeyPoint_convert(kps).astype(np.float64).reshape(-1, 2)
@@ -465,6 +502,13 @@ class StableFeatureExtractor:
         glint nor the image's coastline takes it).  The rest of the image is searched as
         before.  Small far boats, which carry one or no keypoint otherwise, carry several.
         ``band_px`` 0 turns it off.
+    near_resolve_px : float
+        Guided matching only (not in the paper; stop 16): where a keypoint fails the ratio
+        test, the active features that make it ambiguous (descriptor distance within
+        ``1 / (1 - guided_min_quality)`` of the nearest's) are looked at, and when exactly one
+        of them is expected within ``near_resolve_px`` (source pixels) of the keypoint, the
+        keypoint is matched to it: the place settles what the descriptor cannot (a small boat's
+        features have nearly alike descriptors).  0 (default): the ratio test alone.
     band_margin_px : float
         Rows of context (source pixels) the water-band pass's detector sees above and below the
         band (stop 16; its keypoints are still those inside the band).  CenSurE finds nothing
@@ -594,6 +638,7 @@ class StableFeatureExtractor:
         hold_levels: int = 0,
         ratio_distinct_px: float = 0.0,
         band_margin_px: float = 0.0,
+        near_resolve_px: float = 0.0,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -656,6 +701,9 @@ class StableFeatureExtractor:
         if not band_margin_px >= 0:
             raise ValueError(f"features: band_margin_px must be >= 0, got {band_margin_px}")
         self.band_margin_px = float(band_margin_px)
+        if not near_resolve_px >= 0:
+            raise ValueError(f"features: near_resolve_px must be >= 0, got {near_resolve_px}")
+        self.near_resolve_px = float(near_resolve_px)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -905,6 +953,17 @@ class StableFeatureExtractor:
                 gap = np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)
                 d2[gap <= sep] = np.inf
             dist[one, 1] = np.maximum(d2.min(axis=1), 0.0)
+        near = self.near_resolve_px * self._scale
+        if near > 0:
+            q = match_quality(dist[:, 0], dist[:, 1])
+            fail = (nn[:, 0] >= 0) & (q < self.guided_min_quality)
+            if fail.any():
+                sel = fail[qi]
+                amb = 1.0 / max(1.0 - self.guided_min_quality, 1e-6) ** 2
+                nn2, dist2 = nn.copy(), dist.copy()
+                _near_resolve(desc, self._desc, act, qi[sel], ai[sel], pred, np.ascontiguousarray(kxy, np.float64),
+                              near * near, amb, nn2, dist2)
+                nn[fail], dist[fail] = nn2[fail], dist2[fail]
         return nn, dist
 
     def _camera_motion(self, src: np.ndarray, dst: np.ndarray, stable: np.ndarray,
