@@ -331,7 +331,7 @@ class AffinityClusters:
 
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
-        label_memory_s: float = 2.0, unmerge: bool = False,
+        label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -342,6 +342,7 @@ class AffinityClusters:
         self.min_features = max(2, int(min_features))
         self.label_memory_s = float(label_memory_s)
         self.unmerge = bool(unmerge)
+        self.gate_clusters = bool(gate_clusters)
         self.reset()
 
     def reset(self) -> None:
@@ -382,7 +383,7 @@ class AffinityClusters:
 
     def _velocity_gate(self, lab, vel, li, lj, t_s, max_dv, min_age_s):
         est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
-        return _gate_links(lab, vel, li, lj, est, max_dv)
+        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters)
 
     def step(
         self,
@@ -511,10 +512,14 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
-def _gate_links(lab, vel, li, lj, established, max_dv):
+def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False):
     """Which links ``(li, lj)`` may join their ends (see :meth:`AffinityClusters.step`,
     ``max_dv_px_s``): False where one end belongs to an established cluster and the other, not
-    in it, has a velocity more than ``max_dv`` from the cluster's mean velocity."""
+    in it, has a velocity more than ``max_dv`` from the cluster's mean velocity.  With
+    ``clusters`` (stop 16), also False where the two ends belong to two different established
+    clusters whose mean velocities differ by more than ``max_dv``: the feature test alone lets
+    a link through when the end in one cluster is a stray member of the other object (its own
+    velocity alike) and the other end's velocity is unknown."""
     keep = np.ones(len(li), bool)
     la, lb = lab[li], lab[lj]
     cand = (la != lb) & ((la >= 0) | (lb >= 0))
@@ -548,6 +553,13 @@ def _gate_links(lab, vel, li, lj, established, max_dv):
         return out
 
     keep[cand] = ~(refuse(li[cand], lj[cand]) | refuse(lj[cand], li[cand]))
+    if clusters:
+        a, b = k[li], k[lj]
+        both = cand & (a >= 0) & (b >= 0)
+        if both.any():
+            with np.errstate(invalid="ignore"):
+                far = np.hypot(*(vmean[a[both]] - vmean[b[both]]).T) > max_dv  # NaN: not refused
+            keep[np.flatnonzero(both)[far]] = False
     return keep
 
 
@@ -660,6 +672,7 @@ def grow_boxes(
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
     wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
+    cut_core_frac: float = 0.0, cut_core_undo: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -713,6 +726,15 @@ def grow_boxes(
         window's left or right edge; only rows above the object count, so its width and bottom
         stay).  A bridge or a sail against the sky stands out less than the dark hull on the
         water.
+    cut_core_frac : float
+        The core check of the two cuts (0: off; not in the paper, stop 16): the waterline cut
+        may leave out at most this fraction of the core's height (the core is the features'
+        extent, ``cores``), and the wake cut at most this fraction of its width; a cut that
+        would leave out more is limited to that (``cut_core_undo`` False) or undone (True).
+        The features lie on the boat, so a cut through the middle of them is more likely a
+        darker hull under a bright cabin, or a low stern, than a reflection or a wake.
+    cut_core_undo : bool
+        See ``cut_core_frac``.
 
     Returns
     -------
@@ -736,14 +758,14 @@ def grow_boxes(
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                            int(trail[n]), top_frac)
+                                            int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
             # coastline still reaches its edges)
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                   int(trail[n]), top_frac)
+                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -752,7 +774,7 @@ def grow_boxes(
 
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
-              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0):
+              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -810,8 +832,9 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
         return None, contrast, False
     if waterline_frac > 0 or wake_frac > 0:
+        core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
         nx0, ny0, nx1, ny1 = _trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
-                                          waterline_frac, wake_frac, trail)
+                                          waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
         ny0 = y0 + _extend_top(dev, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
@@ -841,16 +864,25 @@ def _extend_top(dev, ext, thr, left_edge, right_edge):
     return int(rows[0]) if len(rows) else y0
 
 
-def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0):
+def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
-    from its background, ``sel`` the object's foreground mask, or ``(labels, object's labels)``."""
+    from its background, ``sel`` the object's foreground mask, or ``(labels, object's labels)``.
+    ``core`` (``x0, y0, x1, y1``, window pixels, the features' extent) with ``core_frac`` > 0:
+    a cut may leave out at most that fraction of the core's height (waterline) or width (wake);
+    beyond it the cut is limited to that, or undone with ``core_undo``."""
     x0, y0, x1, y1 = (int(v) for v in ext)
+    check = core is not None and core_frac > 0
     if waterline_frac > 0 and y1 - y0 >= 3:
         rows = np.median(dev[y0:y1, x0:x1], axis=1)
         strong = np.flatnonzero(rows >= waterline_frac * rows.max())
-        y1 = y0 + int(strong[-1]) + 1
+        yc = y0 + int(strong[-1]) + 1
+        if check:
+            ch = max(core[3] - core[1], 1.0)
+            if min(core[3], y1) - yc > core_frac * ch:  # the cut leaves out too much of the core
+                yc = y1 if core_undo else max(yc, min(y1, int(np.ceil(core[3] - core_frac * ch))))
+        y1 = yc
     if wake_frac > 0 and trail != 0 and x1 - x0 >= 3:
         m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
         # each column's height: from its top foreground pixel down to the object's bottom
@@ -861,14 +893,24 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0):
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
             run = max(3, 0.25 * (x1 - x0))
             a, b = int(tall[0]), (x1 - x0) - int(tall[-1]) - 1
-            x0, x1 = x0 + (a if a >= run and trail < 0 else 0), x1 - (b if b >= run and trail > 0 else 0)
+            nx0, nx1 = x0 + (a if a >= run and trail < 0 else 0), x1 - (b if b >= run and trail > 0 else 0)
+            if check:
+                cw = max(core[2] - core[0], 1.0)
+                if nx0 - max(core[0], x0) > core_frac * cw:  # the cut leaves out too much of the core
+                    nx0 = x0 if core_undo else min(nx0, max(x0, int(np.floor(core[0] + core_frac * cw))))
+                if min(core[2], x1) - nx1 > core_frac * cw:
+                    nx1 = x1 if core_undo else max(nx1, min(x1, int(np.ceil(core[2] - core_frac * cw))))
+            x0, x1 = nx0, nx1
     return x0, y0, x1, y1
 
 
-def _box_members(k, vel, n, max_dv):
+def _box_members(k, vel, n, max_dv, anchor=None):
     """Members ``(k: cluster index, vel: velocity relative to the scene, px/s, NaN unknown)`` that
     count in their cluster's box: those within ``max_dv`` of the cluster's median velocity (and
-    those of unknown velocity); a cluster left with fewer than two keeps all its members."""
+    those of unknown velocity); a cluster left with fewer than two keeps all its members.
+    ``anchor`` (bool per member, optional; stop 16): the members inside the cluster's last box;
+    where at least two of them have a known velocity, the median is theirs (the box stays on the
+    object it was on when the cluster holds features of two objects)."""
     keep = np.ones(len(k), bool)
     fin = np.isfinite(vel).all(axis=1)
     for c in range(n):
@@ -876,7 +918,8 @@ def _box_members(k, vel, n, max_dv):
         f = mc[fin[mc]]
         if len(f) < 3:
             continue
-        med = np.median(vel[f], axis=0)
+        fa = f[anchor[f]] if anchor is not None else f[:0]
+        med = np.median(vel[fa if len(fa) >= 2 else f], axis=0)
         far = f[np.hypot(*(vel[f] - med).T) > max_dv]
         if len(mc) - len(far) >= 2:
             keep[far] = False
@@ -1029,6 +1072,11 @@ class ClusterParams:
     wake_min_px_s: float = 5.0
     top_frac: float = 0.35
     max_aspect: float = 12.0
+    cut_core_frac: float = 0.0
+    cut_core_undo: bool = False
+    merge_dv_clusters: bool = False
+    box_keep_last: bool = False
+    relink_size_ratio: float = 0.0
 
 
 class FeatureClusterer:
@@ -1057,7 +1105,8 @@ class FeatureClusterer:
         self.source = source
         self.camera_id = camera_id
         p = self.params
-        self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge)
+        self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
+                                      p.merge_dv_clusters)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -1079,11 +1128,43 @@ class FeatureClusterer:
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
         self._dts: list = []  # the last frame intervals (s), for the age limit of _merged
+        self._cluster_boxes: dict = {}  # cluster identity -> its box last frame (box_keep_last)
+        self._cluster_boxes_t = -1  # frame index of _cluster_boxes
+        self._cluster_boxes_now = -1  # frame index before this one
+        self._last_fi = -1  # frame index of the last update
 
     def reset(self) -> None:
         self.graph.reset()
         self.noise_px_s = float("nan")
         self._relink_reset()
+
+    def _box_anchor(self, snap, cids, k, xy):
+        """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
+        their cluster's box of the last frame carried into this one by the camera motion (with
+        ``params.box_keep_last``, see :func:`_box_members`); None when no cluster has one."""
+        last = self._cluster_boxes
+        if not last or self._cluster_boxes_t != self._cluster_boxes_now:
+            return None
+        h = np.asarray(snap.homography, np.float64)
+        lb = np.full((len(cids), 4), np.nan)
+        for i, c in enumerate(cids):
+            b = last.get(int(c))
+            if b is None:
+                continue
+            if np.all(np.isfinite(h)):
+                q0 = h @ np.array([b[0], b[1], 1.0])
+                q1 = h @ np.array([b[0] + b[2], b[1] + b[3], 1.0])
+                if abs(q0[2]) > 1e-12 and abs(q1[2]) > 1e-12:
+                    x0, y0 = q0[:2] / q0[2]
+                    x1, y1 = q1[:2] / q1[2]
+                    b = np.array([x0, y0, x1 - x0, y1 - y0])
+            lb[i] = b
+        if not np.isfinite(lb).any():
+            return None
+        bb = lb[k]
+        with np.errstate(invalid="ignore"):
+            return ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
+                    & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
 
     def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
         """Clusters reported as one object in the last frame stay one while each box lies, by at
@@ -1191,6 +1272,10 @@ class FeatureClusterer:
                     continue
                 d = gap_px(boxes[i], lb)
                 gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
+                    hb, hl = float(boxes[i][3]), float(lb[3])
+                    if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
+                        continue
                 if d <= gate:
                     pairs.append((d, i, k))
         done = set()
@@ -1367,6 +1452,7 @@ class FeatureClusterer:
             self._dts = (self._dts + [dts])[-9:]
         if n == 0:
             self._merged = []
+            self._last_fi = fi
             if p.relink_s > 0:
                 self._relink(snap, cids, np.zeros((0, 4)))
             return (Detections.empty(t, fi, self.source, self.camera_id),
@@ -1374,6 +1460,8 @@ class FeatureClusterer:
         m = labels >= 0
         k = np.searchsorted(cids, labels[m])
         xy = snap.xy[m]
+        self._cluster_boxes_now = self._last_fi
+        self._last_fi = fi
         r = p.box_pad * 0.5 * snap.size_px[m]
         if p.box_dv_px_s > 0:
             # the box is drawn around the members that move with the cluster
@@ -1383,7 +1471,8 @@ class FeatureClusterer:
             dv = p.box_dv_px_s
             if p.box_dv_noise_k > 0 and np.isfinite(self.noise_px_s):
                 dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
-            inb = _box_members(k, fv, n, dv)
+            anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
+            inb = _box_members(k, fv, n, dv, anchor)
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
             kb, xyb, rb = k, xy, r
@@ -1429,7 +1518,11 @@ class FeatureClusterer:
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
-                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac)
+                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
+                cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo)
+        if p.box_keep_last:
+            self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
+            self._cluster_boxes_t = fi
         count = np.bincount(k, minlength=n)
         iv = snap.image_velocity[m]
         ok = np.isfinite(iv).all(axis=1)
