@@ -93,8 +93,16 @@ def test_bad_ratio_distinct_px_is_refused():
         StableFeatureExtractor(ratio_distinct_px=float("nan"))
 
 
-def test_the_default_is_the_papers_test():
-    assert StableFeatureExtractor().ratio_distinct_px == 0.0
+def test_the_default_second_neighbour_lies_beyond_4_px_and_0_is_the_papers_test():
+    rng = np.random.default_rng(6)
+    xy, desc, q, kxy = _case(rng, 3.5)  # the look-alike 3.5 px away: the same structure at 4 px
+    ext = StableFeatureExtractor(nominal_fps=FPS)
+    assert ext.ratio_distinct_px == 4.0
+    act = _with_active(ext, xy, desc)
+    assert ext._match(q, act, kxy, 20.0)[1].tolist() == [0]
+    paper = StableFeatureExtractor(nominal_fps=FPS, ratio_distinct_px=0.0)
+    act = _with_active(paper, xy, desc)
+    assert len(paper._match(q, act, kxy, 20.0)[0]) == 0
 
 
 class _Horizon:
@@ -185,7 +193,8 @@ def test_the_place_settles_an_ambiguous_match_when_one_candidate_is_there(closer
 def test_two_ambiguous_candidates_at_the_keypoint_stay_unmatched():
     rng = np.random.default_rng(4)
     xy, desc, q, kxy = _near_case(rng, 1.5, False)  # both within 2 px of the keypoint
-    on = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=2.0)
+    # (with the paper's second neighbour: the default ratio_distinct_px would already pass it)
+    on = StableFeatureExtractor(nominal_fps=FPS, near_resolve_px=2.0, ratio_distinct_px=0.0)
     act = _with_active(on, xy, desc)
     assert len(on._match(q, act, kxy, 20.0)[0]) == 0
 

@@ -227,7 +227,9 @@ def test_descriptors_on_a_smaller_copy_keep_full_resolution_positions():
 def test_guided_matching_with_one_candidate_takes_the_second_distance_from_anywhere():
     # three active features; the previous camera motion moves the image 5 px right
     rng = np.random.default_rng(7)
-    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=8.0)
+    # the paper's second neighbour (features 1 and 2 lie 4 px apart: the default
+    # ratio_distinct_px would leave 2 out as the same structure)
+    ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=8.0, ratio_distinct_px=0.0)
     base = rng.uniform(0, 40, (4, 128)).astype(np.float32)  # on the scale of SIFT's
     ext._xy = np.array([[20.0, 20.0], [100.0, 100.0], [104.0, 100.0], [200.0, 50.0]])
     ext._desc = base.copy()
