@@ -580,8 +580,8 @@ class StableFeatureExtractor:
         or the last ones (the paper's search, among the 8 nearest descriptors; none of them far
         enough: the farthest of the 8).  0: the paper's test.  Default 4 px: on the 12 tuning
         sequences (seeds 1, 2, 5-8 of ``pan`` and ``ir``) mean METE 0.4898 -> 0.4887 and ID
-        switches 88 -> 82, a gain far below the seed-to-seed spread; 6 and 8 px lower METE
-        a little more but raise the switches (105+ and 114).  Stop 14's ``dedup_px`` already
+        switches 88 -> 82, a gain far below the seed-to-seed spread; 6 and 8 px give mean METE
+        0.4892 and 0.4871 but raise the switches to 113 and 114.  Stop 14's ``dedup_px`` already
         keeps features 3 px apart, so below that it changes nothing.
     hold_band_only : bool
         Hold only the features inside the water band's rows (when :meth:`process` is given the
