@@ -43,7 +43,7 @@ TARGET = {0.3: 0.75, 0.5: 0.55}
 # speed), each with the detector settings stored in its JSON; one equal to the default in both
 # the XML bytes and the JSON's ``detector`` block is skipped (the default's rows name it)
 ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v6": "boat_cascade_v6.xml", "v6fast": "boat_cascade_v6fast.xml",
-                "v6s15": "boat_cascade_v6s15.xml", "v2": "boat_cascade_v2.xml"}
+                "v6s15": "boat_cascade_v6s15.xml", "v7": "boat_cascade_v7.xml", "v2": "boat_cascade_v2.xml"}
 # the floor of a cascade scan at 704x576 (pyramid, integrals, variance checks; a cascade that
 # rejects every window at its first stump) for these windows and scale factors
 FLOOR_WINDOWS = ((60, 30), (40, 20), (30, 15))
