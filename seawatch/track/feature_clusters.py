@@ -1026,7 +1026,19 @@ class ClusterParams:
     to the foreground found at this fraction of the core's contrast (a superstructure against
     the sky); see :func:`grow_boxes`; ``max_aspect`` (12; 0 off): a report whose box is more
     than this many times wider than tall is dropped (the foot of a coast, the horizon).
-    ``merge_dv_px_s`` is 3 px/s since stop 15 (5 before)."""
+    ``merge_dv_px_s`` is 3 px/s since stop 15 (5 before).
+    Stop 16: ``cut_core_frac`` (0: off; 0.5 tried): the waterline cut may leave out at most this
+    fraction of the core's height and the wake cut of its width (the core: the box members'
+    extent); a cut that would leave out more is limited to that, or undone with ``cut_core_undo``
+    (False); off by default because on the tuning seeds it cost METE (the simulator's boats have
+    features on their reflections) and saved no identity switch; ``box_keep_last`` (True): the box members are chosen around the median velocity of the
+    members inside the cluster's box of the frame before (carried by the camera motion), when two
+    or more of them have a known velocity, so the box does not jump to another object whose
+    features the cluster also holds (see :func:`_box_members`).  Two options tried at stop 16
+    and left off: ``merge_dv_clusters`` (False: the velocity gate also refuses a link between two
+    established clusters whose mean velocities differ by more than ``merge_dv_px_s``, see
+    :func:`_gate_links`) and ``relink_size_ratio`` (0, off: a lost identity is not relinked to a
+    box whose height differs from the lost box's by more than this factor)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1075,7 +1087,7 @@ class ClusterParams:
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
     merge_dv_clusters: bool = False
-    box_keep_last: bool = False
+    box_keep_last: bool = True
     relink_size_ratio: float = 0.0
 
 
