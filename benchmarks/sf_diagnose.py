@@ -14,7 +14,8 @@ the scenario's camera model, so with the water steps) over one simulator scenari
 * with ``--switches``, every identity switch and where the identities came from.
 
 ``--cache DIR`` keeps each frame's feature snapshot (the extractor's output) in ``DIR`` the first
-time a scenario, seed, length, ``"ext"`` and ``"horizon"`` are run, and later replays only the
+time a scenario, seed, length, ``"ext"``, ``"horizon"`` and extractor source
+(``seawatch/detect/features.py``) are run, and later replays only the
 clustering on them (the frames are rendered again; about 5 times faster).  The extractor knows
 nothing of the clusterer, so a replay gives the clusterer exactly the input of a full run: use it to
 compare ``ClusterParams`` variants, not extractor ones.
@@ -103,7 +104,11 @@ def main(argv=None) -> int:
     cpu = 0.0
     cache_path, recorded, record = None, None, None
     if args.cache:
-        key = json.dumps([args.scenario, args.seed, args.duration_s, ext_kw, horizon], sort_keys=True)
+        import seawatch.detect.features as _features
+
+        with open(_features.__file__, "rb") as fh:  # the extractor's code (its defaults) is part of the key
+            code = hashlib.sha1(fh.read()).hexdigest()
+        key = json.dumps([args.scenario, args.seed, args.duration_s, ext_kw, horizon, code], sort_keys=True)
         cache_path = os.path.join(args.cache, f"{args.scenario}_{args.seed}_"
                                   f"{hashlib.sha1(key.encode()).hexdigest()[:12]}.pkl")
         if os.path.exists(cache_path):
