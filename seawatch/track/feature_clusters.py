@@ -1157,26 +1157,24 @@ class FeatureClusterer:
         last = self._cluster_boxes
         if not last or self._cluster_boxes_t != self._cluster_boxes_now:
             return None
+        nan4 = (np.nan,) * 4
+        lb = np.array([last.get(int(c), nan4) for c in cids], np.float64).reshape(-1, 4)
         h = np.asarray(snap.homography, np.float64)
-        lb = np.full((len(cids), 4), np.nan)
-        for i, c in enumerate(cids):
-            b = last.get(int(c))
-            if b is None:
-                continue
-            if np.all(np.isfinite(h)):
-                q0 = h @ np.array([b[0], b[1], 1.0])
-                q1 = h @ np.array([b[0] + b[2], b[1] + b[3], 1.0])
-                if abs(q0[2]) > 1e-12 and abs(q1[2]) > 1e-12:
-                    x0, y0 = q0[:2] / q0[2]
-                    x1, y1 = q1[:2] / q1[2]
-                    b = np.array([x0, y0, x1 - x0, y1 - y0])
-            lb[i] = b
-        if not np.isfinite(lb).any():
-            return None
+        if np.all(np.isfinite(h)):  # carried by the camera motion (both corners)
+            c = np.concatenate([lb[:, :2], lb[:, :2] + lb[:, 2:]], axis=0)
+            q = c @ h[:2, :2].T + h[:2, 2]
+            w = c @ h[2, :2] + h[2, 2]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                q = q / w[:, None]
+            n = len(lb)
+            ok = np.abs(w[:n]) > 1e-12
+            ok &= np.abs(w[n:]) > 1e-12
+            lb = np.where(ok[:, None], np.concatenate([q[:n], q[n:] - q[:n]], axis=1), lb)
         bb = lb[k]
         with np.errstate(invalid="ignore"):
-            return ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
-                    & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
+            inside = ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
+                      & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
+        return inside if inside.any() else None
 
     def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
         """Clusters reported as one object in the last frame stay one while each box lies, by at
