@@ -143,3 +143,17 @@ def test_relink_refuses_a_cluster_of_another_size():
     assert now != first
     first, now = run(2.0, [[104, 61], [114, 63]])  # the same size: relinked
     assert now == first
+
+
+def test_default_clusterer_keeps_the_hull_under_a_bright_cabin():
+    # features along the cabin's foot and on the hull, all moving alike (the core, rows 57-72, is
+    # mostly hull, so the hull passes the box growing's half-peak threshold): the default
+    # parameters (the core check at 0.6, undoing) report the whole boat; the waterline cut alone
+    # (check off) only the cabin
+    img = cabin_over_hull()
+    xy = [[106, 57], [120, 57], [134, 57], [104, 64], [118, 70], [130, 72], [112, 62]]
+    vel = [[20, 0]] * len(xy)
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0)).update(snap(xy, vel, 0.0, 0), img)
+    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([100, 48, 40, 26])
+    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, cut_core_frac=0.0)).update(snap(xy, vel, 0.0, 0), img)
+    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([100, 48, 40, 10])
