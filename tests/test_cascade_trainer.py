@@ -45,7 +45,9 @@ def trained(tmp_path_factory):
         max_scan_windows=3e6, wake_stage=True, time_budget_s=60, seed=3,
     )
     xml = tmp_path_factory.mktemp("casc") / "boats.xml"
-    images = _synthetic_images(14, 100)
+    # 20 scenes: with 14 the main cascade left only 7 wake negatives on one CPU (AMD EPYC) against
+    # 10 needed, so the wake stage was skipped (the float details of training differ between CPUs)
+    images = _synthetic_images(20, 100)
     negatives = []
     for i in range(10):  # boat-free scenes full of clutter
         img, _, _ = boat_scene(300 + i, n_boats=0, clutter=30, coast=i % 2 == 1)
@@ -119,6 +121,7 @@ def test_trainer_learns_synthetic_boats(trained):
     assert cascade.n_stages >= 3
     # the augmentation's jitter is recorded (the model's JSON holds this record)
     assert (record["settings"]["scale_jitter"], record["settings"]["shift_jitter"]) == (0.08, 0.06)
+    assert "skipped" not in record["wake_stage"], record["wake_stage"]
     assert record["wake_stage"]["n_weak"] >= 1
     # unseen scenes: boats found, few false windows
     images = _synthetic_images(6, 500)

@@ -629,6 +629,11 @@ def train_cascade(
                                     "false_alarm": res.false_alarm, "n_neg": int(len(wneg)),
                                     "seconds": round(time.perf_counter() - t0, 1)}
             log(f"  wake stage: {len(res.stage.feature)} stumps, HR {res.hit_rate:.4f}, FA {res.false_alarm:.3f}")
+        else:
+            # too few windows that the main cascade still accepts to train on: say so in the record
+            record["wake_stage"] = {"skipped": f"only {len(wneg)} wake negatives, 10 needed", "n_weak": 0,
+                                    "n_neg": int(len(wneg)), "seconds": round(time.perf_counter() - t0, 1)}
+            log(f"  wake stage skipped: only {len(wneg)} wake negatives (10 needed)")
     record["n_stages"] = cascade.n_stages
     record["training_time_s"] = round(time.perf_counter() - t_start, 1)
     _save(cascade, out_xml, record)
