@@ -145,15 +145,20 @@ def test_relink_refuses_a_cluster_of_another_size():
     assert now == first
 
 
-def test_default_clusterer_keeps_the_hull_under_a_bright_cabin():
+def test_clusterer_with_the_core_check_keeps_the_hull_under_a_bright_cabin():
     # features along the cabin's foot and on the hull, all moving alike (the core, rows 57-72, is
-    # mostly hull, so the hull passes the box growing's half-peak threshold): the default
-    # parameters (the core check at 0.6, undoing) report the whole boat; the waterline cut alone
-    # (check off) only the cabin
+    # mostly hull, so the hull passes the box growing's half-peak threshold): with the core check
+    # (0.6, undoing) the whole boat is reported; by default (check off) the waterline cut leaves
+    # only the cabin, and limiting instead of undoing keeps 0.4 of the core's rows (57 + 6)
     img = cabin_over_hull()
     xy = [[106, 57], [120, 57], [134, 57], [104, 64], [118, 70], [130, 72], [112, 62]]
     vel = [[20, 0]] * len(xy)
-    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0)).update(snap(xy, vel, 0.0, 0), img)
-    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([100, 48, 40, 26])
-    _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, cut_core_frac=0.0)).update(snap(xy, vel, 0.0, 0), img)
-    assert len(tr) == 1 and tr.boxes[0].tolist() == pytest.approx([100, 48, 40, 10])
+
+    def box(**kw):
+        _, tr = FeatureClusterer(ClusterParams(confirm_s=0.0, **kw)).update(snap(xy, vel, 0.0, 0), img)
+        assert len(tr) == 1
+        return tr.boxes[0].tolist()
+
+    assert box(cut_core_frac=0.6, cut_core_undo=True) == pytest.approx([100, 48, 40, 26])
+    assert box() == pytest.approx([100, 48, 40, 10])
+    assert box(cut_core_frac=0.6) == pytest.approx([100, 48, 40, 15])

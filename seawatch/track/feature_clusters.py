@@ -1027,11 +1027,12 @@ class ClusterParams:
     the sky); see :func:`grow_boxes`; ``max_aspect`` (12; 0 off): a report whose box is more
     than this many times wider than tall is dropped (the foot of a coast, the horizon).
     ``merge_dv_px_s`` is 3 px/s since stop 15 (5 before).
-    Stop 16: ``cut_core_frac`` (0.6; 0 off): the waterline cut may leave out at most this
-    fraction of the core's height and the wake cut of its width (the core: the box members'
-    extent); a cut that would leave out more is undone (``cut_core_undo``, True) or, with
-    ``cut_core_undo`` False, limited to that (a bright cabin over a darker hull keeps its hull);
-    ``box_keep_last`` (True): the box members are chosen around the median velocity of the
+    Stop 16: ``cut_core_frac`` (0: off; 0.6 with ``cut_core_undo`` True is the variant tried
+    last): the waterline cut may leave out at most this fraction of the core's height and the
+    wake cut of its width (the core: the box members' extent); a cut that would leave out more
+    is limited to that, or undone with ``cut_core_undo`` (a bright cabin over a darker hull keeps
+    its hull); off by default, since with the extractor of 6a67f5f it raised the tuning seeds'
+    identity switches (81 -> 88); ``box_keep_last`` (True): the box members are chosen around the median velocity of the
     members inside the cluster's box of the frame before (carried by the camera motion), when two
     or more of them have a known velocity, so the box does not jump to another object whose
     features the cluster also holds (see :func:`_box_members`).  Two options tried at stop 16
@@ -1084,8 +1085,8 @@ class ClusterParams:
     wake_min_px_s: float = 5.0
     top_frac: float = 0.35
     max_aspect: float = 12.0
-    cut_core_frac: float = 0.6
-    cut_core_undo: bool = True
+    cut_core_frac: float = 0.0
+    cut_core_undo: bool = False
     merge_dv_clusters: bool = False
     box_keep_last: bool = True
     relink_size_ratio: float = 0.0
