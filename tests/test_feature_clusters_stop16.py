@@ -162,3 +162,8 @@ def test_clusterer_with_the_core_check_keeps_the_hull_under_a_bright_cabin():
     assert box(cut_core_frac=0.6, cut_core_undo=True) == pytest.approx([100, 48, 40, 26])
     assert box() == pytest.approx([100, 48, 40, 10])
     assert box(cut_core_frac=0.6) == pytest.approx([100, 48, 40, 15])
+
+
+def test_clusterer_passes_the_gate_between_clusters_to_its_graph():
+    assert FeatureClusterer(ClusterParams()).graph.gate_clusters  # on by default since stop 16
+    assert not FeatureClusterer(ClusterParams(merge_dv_clusters=False)).graph.gate_clusters

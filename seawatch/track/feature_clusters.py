@@ -1035,11 +1035,11 @@ class ClusterParams:
     identity switches (81 -> 88); ``box_keep_last`` (True): the box members are chosen around the median velocity of the
     members inside the cluster's box of the frame before (carried by the camera motion), when two
     or more of them have a known velocity, so the box does not jump to another object whose
-    features the cluster also holds (see :func:`_box_members`).  Two options tried at stop 16
-    and left off: ``merge_dv_clusters`` (False: the velocity gate also refuses a link between two
-    established clusters whose mean velocities differ by more than ``merge_dv_px_s``, see
-    :func:`_gate_links`) and ``relink_size_ratio`` (0, off: a lost identity is not relinked to a
-    box whose height differs from the lost box's by more than this factor)."""
+    features the cluster also holds (see :func:`_box_members`); ``merge_dv_clusters`` (True; False
+    off): the velocity gate also refuses a link between two established clusters whose mean
+    velocities differ by more than ``merge_dv_px_s`` (see :func:`_gate_links`).  Tried and left
+    off: ``relink_size_ratio`` (0, off: a lost identity is not relinked to a box whose height
+    differs from the lost box's by more than this factor)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1087,7 +1087,7 @@ class ClusterParams:
     max_aspect: float = 12.0
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
-    merge_dv_clusters: bool = False
+    merge_dv_clusters: bool = True
     box_keep_last: bool = True
     relink_size_ratio: float = 0.0
 
