@@ -108,7 +108,7 @@ def main(argv=None) -> int:
 
         with open(_features.__file__, "rb") as fh:  # the extractor's code (its defaults) is part of the key
             code = hashlib.sha1(fh.read()).hexdigest()
-        key = json.dumps([args.scenario, args.seed, args.duration_s, ext_kw, horizon, code], sort_keys=True)
+        key = json.dumps(["v2", args.scenario, args.seed, args.duration_s, ext_kw, horizon, code], sort_keys=True)
         cache_path = os.path.join(args.cache, f"{args.scenario}_{args.seed}_"
                                   f"{hashlib.sha1(key.encode()).hexdigest()[:12]}.pkl")
         if os.path.exists(cache_path):
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
         if recorded is None and record is None:
             _, tr = trk.process(f)
         else:
-            tr = _process(trk, f, None if recorded is None else pickle.loads(recorded[len(pred)]), record)
+            tr = _process(trk, f, None if recorded is None else recorded[len(pred)], record)
         cpu += time.process_time() - c0
         pred[f.index] = (tr.ids, tr.boxes)
         s = trk.last_snapshot
@@ -132,9 +132,10 @@ def main(argv=None) -> int:
         zooms[f.index] = float(f.ptz.zoom) if f.ptz is not None else 1.0
     if record is not None:
         os.makedirs(args.cache, exist_ok=True)
-        with open(cache_path + ".part", "wb") as fh:
+        part = f"{cache_path}.{os.getpid()}.part"  # two runs recording the same key do not share a file
+        with open(part, "wb") as fh:
             pickle.dump(record, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(cache_path + ".part", cache_path)
+        os.replace(part, cache_path)
     frames = sorted(gt)
     e = mete(gt, pred, frames=frames)
     idsw = clear_mot(gt, pred, iou=0.3, frames=frames)["IDSW"]
@@ -198,10 +199,21 @@ def _process(trk, frame, snap=None, record=None):
     trk._frame_camera = camera_at(trk.camera, frame)[0] if trk.camera is not None else None
     hz = trk._horizon(frame)
     zoom = float(frame.ptz.zoom) if (frame.ptz is not None and trk.camera is not None) else 1.0
+    # the extractor's input (the rendered frame, the horizon it is given, the zoom): a replay whose
+    # input differs from the recording's (the simulator or the horizon code changed) is refused
+    digest = hashlib.sha1(frame.image.tobytes() + repr(
+        None if hz is None else (hz.y_left, hz.y_right, hz.width) if hasattr(hz, "y_left") else hz).encode()
+        + repr(zoom).encode()).hexdigest()
     if snap is None:
         snap = trk.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
         if record is not None:
-            record.append(pickle.dumps(snap, protocol=pickle.HIGHEST_PROTOCOL))
+            record.append((digest, pickle.dumps(snap, protocol=pickle.HIGHEST_PROTOCOL)))
+    else:
+        rec_digest, snap = snap
+        if rec_digest != digest:
+            raise SystemExit(f"sf_diagnose: the cached snapshots are stale at frame {frame.index} (the "
+                             f"extractor's input differs from the recording's); delete the cache and run again")
+        snap = pickle.loads(snap)
     trk.last_snapshot = snap
     trk.last_horizon = hz
     trk.clusterer.camera_id = frame.camera_id
@@ -239,16 +251,25 @@ def _speed_pairs(args, ext_kw, kw, horizon) -> int:
     return 0
 
 
+def mete_pairs(gb, pb):
+    """METE's one-to-one assignment of ground-truth boxes ``gb`` to reported boxes ``pb``: the
+    pairs ``(rows, cols)`` with IoU > 0 and the IoU matrix (also used by ``sf_missed_causes.py``)."""
+    from scipy.optimize import linear_sum_assignment
+
+    from seawatch.eval import box_iou
+
+    iou = box_iou(gb, pb)
+    rr, cc = linear_sum_assignment(-iou)
+    keep = iou[rr, cc] > 0
+    return rr[keep], cc[keep], iou
+
+
 def _print_breakdown(gt, pred, frames, kinds, fps, segment_s):
     """METE of each frame is ``(sum over matched pairs of (1 - IoU) + max(n, m) - matched) / max(n, m)``
     (``n`` boats, ``m`` reports, pairs matched by largest total IoU): the first part is each matched
     boat's IoU loss, the second the missed boats (when ``n >= m``) or the reports on no boat beyond
     the boats' count (when ``m > n``).  Prints each part's share of mean METE per boat and per
     segment, and the matched boxes' bias against the ground truth."""
-    from scipy.optimize import linear_sum_assignment
-
-    from seawatch.eval import box_iou
-
     nf = len(frames)
     iou_loss, miss, fp = {}, {}, 0.0
     seg = max(1, int(round(segment_s * fps)))
@@ -263,11 +284,8 @@ def _print_breakdown(gt, pred, frames, kinds, fps, segment_s):
         den = float(max(n, m))
         matched = np.zeros(n, bool)
         if n and m:
-            iou = box_iou(gb, pb)
-            rr, cc = linear_sum_assignment(-iou)
+            rr, cc, iou = mete_pairs(gb, pb)
             for a, b in zip(rr, cc):
-                if iou[a, b] <= 0:
-                    continue
                 matched[a] = True
                 v = int(gi[a])
                 iou_loss[v] = iou_loss.get(v, 0.0) + (1.0 - iou[a, b]) / den

@@ -51,13 +51,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     kw = json.loads(args.params)
     import cv2
-    from scipy.optimize import linear_sum_assignment
-    from scipy.spatial import cKDTree
 
     import seawatch.detect.features as F
-    from seawatch.eval import box_iou
     from seawatch.sim import make_scenario
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
+    from sf_diagnose import mete_pairs  # this folder is on the path when run as a script
 
     cv2.setNumThreads(1)
     ext_kw = kw.pop("ext", {})
@@ -144,11 +142,12 @@ def main(argv=None) -> int:
                 near = near[np.isfinite(d_all[near])]
                 sep_all = np.linalg.norm(pred - pred[a1], axis=1)
                 for j, x in enumerate(DISTINCT):
-                    cand = near[(near != a1) & (sep_all[near] > x)] if x > 0 else near[near != a1]
+                    # the extractor compares the separation in working pixels: X source px times its scale
+                    cand = near[(near != a1) & (sep_all[near] > x * sc)] if x > 0 else near[near != a1]
                     if len(cand):
                         d2 = d_all[cand].min()
                     else:  # the extractor's fallback: the nearest other active feature anywhere
-                        far = (np.arange(len(d_all)) != a1) & ((sep_all > x) if x > 0 else True)
+                        far = (np.arange(len(d_all)) != a1) & ((sep_all > x * sc) if x > 0 else True)
                         d2 = d_all[far].min() if far.any() else np.inf
                     qq = F.match_quality(np.array([dist[k, 0]]), np.array([d2]))[0]
                     pass_distinct[j] += qq >= min_q
@@ -186,9 +185,7 @@ def main(argv=None) -> int:
         den = float(max(n, m))
         matched_gt = np.zeros(n, bool)
         if n and m:
-            iou = box_iou(gb, pb)
-            rr, cc = linear_sum_assignment(-iou)
-            matched_gt[rr[iou[rr, cc] > 0]] = True
+            matched_gt[mete_pairs(gb, pb)[0]] = True
         sxy = snap.xy
         for a in np.flatnonzero(~matched_gt):
             b = gb[a]
