@@ -927,7 +927,7 @@ def _box_members(k, vel, n, max_dv, anchor=None):
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
-                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0):
+                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -941,7 +941,8 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     height where that is more, apart (in x and in y) and their relative
     velocities differ by at most ``max_dv`` (``max_dv`` 0: any velocity; an unknown velocity
     counts as alike); ``groups`` (a list), when given, receives the
-    identities joined into each report (a list per report, in the order returned)."""
+    identities joined into each report (a list per report, in the order returned).  ``apart``:
+    pairs of identities (frozensets) never joined (a cluster and its split part)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
@@ -953,6 +954,8 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             continue
         for j in range(i + 1, len(cids)):
             if not alive[j]:
+                continue
+            if apart and any(frozenset((x, y)) in apart for x in members[i] for y in members[j]):
                 continue
             a, b = boxes[i], boxes[j]
             iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
@@ -1039,7 +1042,16 @@ class ClusterParams:
     off): the velocity gate also refuses a link between two established clusters whose mean
     velocities differ by more than ``merge_dv_px_s`` (see :func:`_gate_links`).  Tried and left
     off: ``relink_size_ratio`` (0, off: a lost identity is not relinked to a box whose height
-    differs from the lost box's by more than this factor)."""
+    differs from the lost box's by more than this factor).
+    ``split_dv_px_s`` (0: off) with ``split_min_features`` (2): a cluster whose members form two
+    groups whose velocities relative to the scene differ by more than this (px/s) is reported as
+    two objects: the part around the box's anchor (the members that move with the cluster's box
+    of the frame before, see :func:`_box_members`) keeps the identity, the other part (at least
+    ``split_min_features`` members within ``split_dv_px_s`` of their own median velocity) is
+    reported under an identity of its own, kept while the split lasts (a cluster holding the
+    features of two boats that pass each other); the new part is reported from ``confirm_s`` on,
+    so the split must last that long.  The clustering (the affinity graph) is unchanged: only the
+    reports are split (see :meth:`FeatureClusterer._split_for_report`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1090,6 +1102,8 @@ class ClusterParams:
     merge_dv_clusters: bool = True
     box_keep_last: bool = True
     relink_size_ratio: float = 0.0
+    split_dv_px_s: float = 0.0
+    split_min_features: int = 2
 
 
 class FeatureClusterer:
@@ -1145,6 +1159,8 @@ class FeatureClusterer:
         self._cluster_boxes_t = -1  # frame index of _cluster_boxes
         self._cluster_boxes_now = -1  # frame index before this one
         self._last_fi = -1  # frame index of the last update
+        self._split_child: dict = {}  # cluster identity -> (identity of its split part, time last split)
+        self._apart: set = set()  # pairs (frozensets) of a cluster and its split part this frame
 
     def reset(self) -> None:
         self.graph.reset()
@@ -1176,6 +1192,57 @@ class FeatureClusterer:
             inside = ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
                       & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
         return inside if inside.any() else None
+
+    def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
+        """``params.split_dv_px_s``: the members of a cluster that move apart from the part
+        around its box's anchor (two groups of clearly different velocity relative to the scene)
+        are labelled as a cluster of their own, for the reports only (the affinity graph keeps
+        them together).  The anchored part keeps the cluster's identity; the other part takes the
+        identity it had the last time this cluster split (within ``label_memory_s``), or a new one.
+        Returns the labels and the sorted identities with the split parts."""
+        p = self.params
+        t = float(snap.t_s)
+        m = np.flatnonzero(labels >= 0)
+        k = np.searchsorted(cids, labels[m])
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            fv = np.nanmean(snap.history[m], axis=1)  # velocity relative to the scene, px/s
+        fin = np.isfinite(fv).all(axis=1)
+        anchor = None
+        if p.box_keep_last:
+            self._cluster_boxes_now = self._last_fi  # as in _outputs (the frame before this one)
+            anchor = self._box_anchor(snap, cids, k, snap.xy[m])
+        dv, need = float(p.split_dv_px_s), max(2, int(p.split_min_features))
+        cnt = np.bincount(k[fin], minlength=len(cids))
+        labels = labels.copy()
+        new = []
+        for c in np.flatnonzero(cnt >= need + 2):
+            f = np.flatnonzero((k == c) & fin)
+            fa = f[anchor[f]] if anchor is not None else f[:0]
+            med = np.median(fv[fa if len(fa) >= 2 else f], axis=0)
+            far = f[np.hypot(*(fv[f] - med).T) > dv]
+            if len(far) < need or len(f) - len(far) < 2:
+                continue
+            med2 = np.median(fv[far], axis=0)
+            part = far[np.hypot(*(fv[far] - med2).T) <= dv]  # the other group: alike among themselves
+            if len(part) < need or np.hypot(*(med2 - med)) <= dv:
+                continue
+            cid = int(cids[c])
+            prev = self._split_child.get(cid)
+            if prev is not None and t - prev[1] <= p.label_memory_s + 1e-9:
+                child = prev[0]
+            else:
+                child = int(self.graph.next_id)
+                self.graph.next_id += 1
+            self._split_child[cid] = (child, t)
+            labels[m[part]] = child
+            new.append(child)
+            self._apart.add(frozenset((cid, child)))
+        if len(self._split_child) > 64:
+            self._split_child = {a: b for a, b in self._split_child.items() if t - b[1] <= p.label_memory_s}
+        if new:
+            cids = np.sort(np.concatenate([cids, np.array(new, np.int64)]))
+        return labels, cids
 
     def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
         """Clusters reported as one object in the last frame stay one while each box lies, by at
@@ -1448,6 +1515,9 @@ class FeatureClusterer:
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable,
                                        velocity=vel, max_dv_px_s=p.merge_dv_px_s,
                                        min_age_s=p.confirm_s)
+        self._apart = set()
+        if p.split_dv_px_s > 0 and len(cids):
+            labels, cids = self._split_for_report(snap, labels, cids)
         self.last_labels = labels
         self._camera = camera
         self._zoom = max(float(zoom), 1e-3)
@@ -1581,7 +1651,7 @@ class FeatureClusterer:
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
-                                                         p.merge_keep_gap_h)
+                                                         p.merge_keep_gap_h, self._apart or None)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
         else:

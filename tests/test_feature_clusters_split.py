@@ -1,0 +1,96 @@
+"""The split for reporting of a cluster holding two objects that move differently
+(``ClusterParams.split_dv_px_s``; not in the paper, off by default)."""
+
+import numpy as np
+import pytest
+
+from seawatch.detect.features import FeatureSnapshot
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _merge_overlapping
+from seawatch.types import TrackState
+
+
+def snap(xy, vel, t, fi, ids):
+    """A snapshot of stable features (each feature's slot is its identity)."""
+    n = len(xy)
+    hist = np.repeat(np.asarray(vel, float).reshape(-1, 2)[:, None, :], 4, axis=1)
+    return FeatureSnapshot(
+        t_s=t, frame_index=fi, ids=np.asarray(ids), slots=np.asarray(ids),
+        xy=np.asarray(xy, float).reshape(-1, 2), size_px=np.full(n, 4.0), confidence=np.full(n, 6),
+        stable=np.ones(n, bool), matched=np.ones(n, bool), velocity=hist[:, -1], history=hist,
+        image_velocity=hist[:, -1], homography=np.eye(3), dt_s=0.1, n_keypoints=n, n_matched=n, shape=(160, 240),
+    )
+
+
+UP = [[100, 60], [105, 61], [110, 60], [115, 61]]  # 20 px/s
+LOW = [[100, 100], [105, 101], [110, 100]]  # 14 px/s (the paper's dissimilarity links the two)
+
+
+def _run(frames=4, low_y=0.0, **kw):
+    """One cluster on two objects moving at 20 and 14 px/s; returns each frame's tracks."""
+    c = FeatureClusterer(ClusterParams(box_dv_px_s=2.5, **kw))
+    out = []
+    for f in range(frames):
+        dx = 2.0 * f
+        xy = [[x + dx, y] for x, y in UP] + [[x + 1.4 * f, y + low_y] for x, y in LOW]
+        _, tr = c.update(snap(xy, [[20, 0]] * 4 + [[14, 0]] * 3, 0.1 * f, f, ids=list(range(7))))
+        out.append(tr)
+    return c, out
+
+
+def test_off_by_default_one_report():
+    assert ClusterParams().split_dv_px_s == 0.0
+    c, out = _run(confirm_s=0.0)
+    assert all(len(t) == 1 for t in out)
+    assert len(set(np.unique(c.last_labels[c.last_labels >= 0]))) == 1
+
+
+def test_two_groups_of_different_velocity_are_reported_apart():
+    c, out = _run(confirm_s=0.0, split_dv_px_s=3.0)
+    for t in out:
+        assert len(t) == 2
+        up = int(np.argmin(t.boxes[:, 1]))
+        assert t.boxes[up, 1] < 70 and t.boxes[1 - up, 1] > 90
+    # the part on the anchor (the upper object, the majority) keeps the cluster's identity, the
+    # other part has one of its own, the same in every frame
+    ids = [tuple(t.ids[np.argsort(t.boxes[:, 1])]) for t in out]
+    assert len(set(ids)) == 1 and ids[0][0] != ids[0][1]
+    assert ids[0][0] < ids[0][1]
+    # the affinity graph is unchanged: the seven features are still one cluster there
+    lab = c.graph._label[:7]
+    assert len(set(lab.tolist())) == 1
+
+
+def test_split_part_is_confirmed_after_confirm_s():
+    # the lower object moves with the upper one for 0.3 s, then slows down: its part is a new
+    # report, tentative until it is confirm_s (0.25 s) old, while the cluster stays confirmed
+    c = FeatureClusterer(ClusterParams(box_dv_px_s=2.5, confirm_s=0.25, split_dv_px_s=3.0))
+    states = []
+    for f in range(7):
+        v_low = 20.0 if f < 3 else 14.0
+        _, tr = c.update(snap(UP + LOW, [[20, 0]] * 4 + [[v_low, 0]] * 3, 0.1 * f, f, ids=list(range(7))))
+        states.append(sorted(tr.states.tolist()))
+    conf, tent = int(TrackState.CONFIRMED), int(TrackState.TENTATIVE)
+    assert states[2] == [tent]  # one cluster, 0.2 s old
+    assert states[3] == states[5] == sorted([conf, tent])  # the part split off at 0.3 s
+    assert states[6] == [conf, conf]
+
+
+def test_velocities_alike_are_not_split():
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0))
+    xy = UP + LOW
+    _, tr = c.update(snap(xy, [[20, 0]] * 4 + [[18, 0]] * 3, 0.0, 0, ids=list(range(7))))
+    assert len(tr) == 1
+
+
+def test_split_parts_are_not_joined_again_by_overlap():
+    # the lower object right under the upper one: their boxes overlap, and the merge of
+    # overlapping reports would join them again
+    _, out = _run(frames=2, confirm_s=0.0, split_dv_px_s=3.0, low_y=-37.0)
+    assert [len(t) for t in out] == [2, 2]
+    b = np.zeros((2, 4))
+    b[:] = (98, 58, 19, 5)
+    cids, _, _, _ = _merge_overlapping(np.array([1, 2]), b, np.array([3, 3]), np.zeros((2, 2)), 0.25,
+                                       apart={frozenset((1, 2))})
+    assert cids.tolist() == [1, 2]
+    cids, _, _, _ = _merge_overlapping(np.array([1, 2]), b, np.array([3, 3]), np.zeros((2, 2)), 0.25)
+    assert cids.tolist() == [1]
