@@ -94,3 +94,36 @@ def test_split_parts_are_not_joined_again_by_overlap():
     assert cids.tolist() == [1, 2]
     cids, _, _, _ = _merge_overlapping(np.array([1, 2]), b, np.array([3, 3]), np.zeros((2, 2)), 0.25)
     assert cids.tolist() == [1]
+
+
+def test_split_waits_split_s():
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, split_s=0.3))
+    n = []
+    for f in range(5):
+        xy = [[x + 2.0 * f, y] for x, y in UP] + [[x + 1.4 * f, y] for x, y in LOW]
+        _, tr = c.update(snap(xy, [[20, 0]] * 4 + [[14, 0]] * 3, 0.1 * f, f, ids=list(range(7))))
+        n.append(len(tr))
+    assert n == [1, 1, 1, 2, 2]
+
+
+def _part_then_graph_split(hand_over):
+    """The lower object is a split part, then leaves (beyond R): once the graph's link breaks it
+    is a cluster of the graph of its own.  Returns the lower object's reported identity per frame
+    (the relink off, to see this rule alone)."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, w_cap=4.0,
+                                       relink_s=0.0, split_hand_over=hand_over))
+    out = []
+    for f in range(12):
+        low_y = 0.0 if f < 3 else 60.0
+        xy = UP + [[x, y + low_y] for x, y in LOW]
+        _, tr = c.update(snap(xy, [[20, 0]] * 4 + [[14, 0]] * 3, 0.1 * f, f, ids=list(range(7))))
+        low = tr.boxes[:, 1] > 90
+        out.append(int(tr.ids[low][0]) if low.sum() == 1 else None)
+    return out
+
+
+def test_graph_split_hands_the_part_its_identity():
+    old = _part_then_graph_split(False)
+    assert None not in old and len(set(old)) == 2  # the graph's split gives a new identity
+    new = _part_then_graph_split(True)
+    assert None not in new and len(set(new)) == 1 and new[0] == old[0]

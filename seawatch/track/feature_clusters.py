@@ -1051,7 +1051,12 @@ class ClusterParams:
     reported under an identity of its own, kept while the split lasts (a cluster holding the
     features of two boats that pass each other); the new part is reported from ``confirm_s`` on,
     so the split must last that long.  The clustering (the affinity graph) is unchanged: only the
-    reports are split (see :meth:`FeatureClusterer._split_for_report`)."""
+    reports are split (see :meth:`FeatureClusterer._split_for_report`).  ``split_hand_over``
+    (off): a cluster new in the graph whose features were, for the most part, a split part's
+    (within ``label_memory_s``) takes that part's identity (the graph split them apart later).
+    ``split_s`` (0): the two groups must be seen in every frame for this long before the split;
+    ``split_memory_s`` (0): a split part's identity is kept this long (at least
+    ``label_memory_s``) after the split last held."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1104,6 +1109,9 @@ class ClusterParams:
     relink_size_ratio: float = 0.0
     split_dv_px_s: float = 0.0
     split_min_features: int = 2
+    split_hand_over: bool = False
+    split_s: float = 0.0
+    split_memory_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -1161,6 +1169,9 @@ class FeatureClusterer:
         self._last_fi = -1  # frame index of the last update
         self._split_child: dict = {}  # cluster identity -> (identity of its split part, time last split)
         self._apart: set = set()  # pairs (frozensets) of a cluster and its split part this frame
+        self._split_since: dict = {}  # cluster identity -> time its two groups were first seen (split_s)
+        self._feat_child: dict = {}  # feature identity -> (split part's identity, time) (split_hand_over)
+        self._hand_alias: dict = {}  # graph cluster -> the split part's identity it took (split_hand_over)
 
     def reset(self) -> None:
         self.graph.reset()
@@ -1216,6 +1227,7 @@ class FeatureClusterer:
         cnt = np.bincount(k[fin], minlength=len(cids))
         labels = labels.copy()
         new = []
+        seen: set = set()
         for c in np.flatnonzero(cnt >= need + 2):
             f = np.flatnonzero((k == c) & fin)
             fa = f[anchor[f]] if anchor is not None else f[:0]
@@ -1228,8 +1240,12 @@ class FeatureClusterer:
             if len(part) < need or np.hypot(*(med2 - med)) <= dv:
                 continue
             cid = int(cids[c])
+            seen.add(cid)
+            since = self._split_since.setdefault(cid, t)
+            if t - since < p.split_s - 1e-9:
+                continue
             prev = self._split_child.get(cid)
-            if prev is not None and t - prev[1] <= p.label_memory_s + 1e-9:
+            if prev is not None and t - prev[1] <= max(p.label_memory_s, p.split_memory_s) + 1e-9:
                 child = prev[0]
             else:
                 child = int(self.graph.next_id)
@@ -1238,11 +1254,54 @@ class FeatureClusterer:
             labels[m[part]] = child
             new.append(child)
             self._apart.add(frozenset((cid, child)))
+        self._split_since = {c: v for c, v in self._split_since.items() if c in seen}
+        if p.split_hand_over:
+            labels = self._hand_over_split(snap, labels, cids, new, t)
         if len(self._split_child) > 64:
-            self._split_child = {a: b for a, b in self._split_child.items() if t - b[1] <= p.label_memory_s}
-        if new:
-            cids = np.sort(np.concatenate([cids, np.array(new, np.int64)]))
+            self._split_child = {a: b for a, b in self._split_child.items()
+                                 if t - b[1] <= max(p.label_memory_s, p.split_memory_s)}
+        if new or p.split_hand_over:
+            cids = np.unique(labels[labels >= 0]).astype(np.int64)
         return labels, cids
+
+    def _hand_over_split(self, snap, labels, cids, new, t):
+        """``params.split_hand_over``: a cluster born in the graph this frame whose features were
+        mostly a split part's takes that part's identity (when no cluster reports it now), and
+        keeps it while the graph keeps the cluster; then remembers the split parts' features.
+        Returns the labels."""
+        p = self.params
+        fc = self._feat_child
+        alias = self._hand_alias
+        live = set(int(c) for c in cids)
+        self._hand_alias = alias = {c: a for c, a in alias.items() if c in live}
+        used = (live - set(alias)) | set(alias.values()) | set(new)
+        for c in cids:
+            c = int(c)
+            if c in alias:
+                labels[labels == c] = alias[c]
+                continue
+            if self.graph.birth_s.get(c, -1.0) != t:
+                continue
+            mem = np.flatnonzero(labels == c)
+            votes: dict = {}
+            for fid in snap.ids[mem]:
+                e = fc.get(int(fid))
+                if e is not None and t - e[1] <= p.label_memory_s + 1e-9:
+                    votes[e[0]] = votes.get(e[0], 0) + 1
+            if not votes:
+                continue
+            child, nv = max(votes.items(), key=lambda kv: kv[1])
+            if 2 * nv >= len(mem) and child not in used:
+                labels[mem] = child
+                alias[c] = child
+                used.discard(c)
+                used.add(child)
+        for child in set(new) | set(alias.values()):
+            for fid in snap.ids[labels == child]:
+                fc[int(fid)] = (child, t)
+        if len(fc) > 4096:
+            self._feat_child = {a: b for a, b in fc.items() if t - b[1] <= p.label_memory_s}
+        return labels
 
     def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
         """Clusters reported as one object in the last frame stay one while each box lies, by at
