@@ -583,6 +583,20 @@ class StableFeatureExtractor:
         switches 88 -> 82, a gain far below the seed-to-seed spread; 6 and 8 px give mean METE
         0.4892 and 0.4871 but raise the switches to 113 and 114.  Stop 14's ``dedup_px`` already
         keeps features 3 px apart, so below that it changes nothing.
+    redetect_threshold : int
+        Guided re-detection in the water band (not in the paper; stop 16, issue #8): where an
+        active feature of confidence ``redetect_min_confidence`` or more is expected in the band
+        (carried by the previous frame's camera motion) and no kept band keypoint lies within
+        ``redetect_px`` (source pixels) of it, CenSurE is run again on a small window around it
+        (upscaled ``band_upscale`` times, as the band) with this lower response threshold, and
+        the keypoints it finds within ``redetect_px`` of the expected position are described and
+        offered to the matching (ratio test and every other rule unchanged).  A re-detected
+        keypoint that matches nothing is dropped (it does not become a new feature), so the sea
+        away from the active features adds nothing.  0 (default): off.
+    redetect_px : float
+        See ``redetect_threshold``.
+    redetect_min_confidence : int
+        See ``redetect_threshold``.
     hold_band_only : bool
         Hold only the features inside the water band's rows (when :meth:`process` is given the
         horizon and ``band_px`` > 0; elsewhere, and without a horizon, every feature may be held).
@@ -643,6 +657,9 @@ class StableFeatureExtractor:
         ratio_distinct_px: float = 4.0,
         band_margin_px: float = 0.0,
         near_resolve_px: float = 0.0,
+        redetect_threshold: int = 0,
+        redetect_px: float = 3.0,
+        redetect_min_confidence: int = 2,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -708,6 +725,18 @@ class StableFeatureExtractor:
         if not near_resolve_px >= 0:
             raise ValueError(f"features: near_resolve_px must be >= 0, got {near_resolve_px}")
         self.near_resolve_px = float(near_resolve_px)
+        if redetect_threshold < 0 or not redetect_px >= 0:
+            raise ValueError("features: redetect_threshold and redetect_px must be >= 0")
+        self.redetect_threshold = int(redetect_threshold)
+        self.redetect_px = float(redetect_px)
+        self.redetect_min_confidence = int(redetect_min_confidence)
+        self._redetect_star = None
+        if self.redetect_threshold > 0:
+            self._redetect_star = cv2.xfeatures2d.StarDetector_create(
+                int(star_max_size), int(redetect_threshold), int(star_line_threshold_projected),
+                int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
+            )
+        self._star_max_size = int(star_max_size)
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -788,11 +817,11 @@ class StableFeatureExtractor:
         if band is not None and len(kps):
             y = _kp_xy(kps)[:, 1]
             kps = [kps[i] for i in np.flatnonzero(~((band[0] <= y) & (y < band[1])))]
-        out = [self._describe_main(grey, kps, pred)]
+        main = self._describe_main(grey, kps, pred)
+        out = [(*main, np.zeros(len(main[0]), bool))]
         if band is not None:
             out.append(self._describe_band(grey, band, pred))
-        return (np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out]),
-                np.concatenate([o[2] for o in out]))
+        return tuple(np.concatenate([o[i] for o in out]) for i in range(4))
 
     def _priority(self, xy: np.ndarray, pred: np.ndarray | None, budget: int) -> np.ndarray | None:
         if pred is None or not (len(xy) > budget > 0):
@@ -829,7 +858,7 @@ class StableFeatureExtractor:
     def _describe_band(self, grey: np.ndarray, band: tuple[int, int], pred):
         """The water-band pass: keypoints found on the band upscaled ``band_upscale`` times
         with the lower threshold, described on the band at the working resolution."""
-        empty = np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
+        empty = np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32), np.zeros(0, bool)
         y0, y1 = band
         up = self.band_upscale
         crop = grey[y0:y1]
@@ -842,9 +871,9 @@ class StableFeatureExtractor:
         dcrop = grey[d0:d1]
         big = dcrop if up == 1 else cv2.resize(dcrop, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
         kps = self._band_star.detect(big)
-        if not kps:
+        if not kps and self._redetect_star is None:
             return empty
-        kxy = _kp_xy(kps)
+        kxy = _kp_xy(kps) if kps else np.zeros((0, 2))
         xy = (kxy + 0.5) / up - 0.5
         xy[:, 1] += d0
         size = np.fromiter((k.size for k in kps), np.float64, len(kps)) / up
@@ -853,11 +882,22 @@ class StableFeatureExtractor:
             row = np.floor(kxy[:, 1] / up) + d0  # the working-image row of each keypoint
             inb = (row >= y0) & (row < y1)
             xy, size, resp = xy[inb], size[inb], resp[inb]
-            if not len(xy):
-                return empty
         priority = self._priority(xy, pred, self.band_max_keypoints)
         keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
-                                self.band_grid_cells, priority)
+                                self.band_grid_cells, priority) if len(xy) else np.zeros(0, np.int64)
+        # guided re-detection (``redetect_threshold``): marked by class_id 1
+        cls = np.zeros(len(keep), np.int64)
+        if self._redetect_star is not None:
+            rxy, rsize, rresp = self._redetect(grey, band, xy[keep])
+            if len(rxy):
+                n0 = len(xy)
+                xy = np.concatenate([xy, rxy])
+                size = np.concatenate([size, rsize])
+                resp = np.concatenate([resp, rresp])
+                keep = np.r_[keep, n0 + np.arange(len(rxy))]
+                cls = np.r_[cls, np.ones(len(rxy), np.int64)]
+        if not len(keep):
+            return empty
         # describe with some rows of context above and below, on the band at the working
         # resolution or upscaled (``band_describe_upscaled``)
         pad = 16
@@ -870,13 +910,69 @@ class StableFeatureExtractor:
         dsz = np.maximum(size * sc, self.band_min_size_px) * f
         px = ((xy[keep, 0] + 0.5) * f - 0.5).tolist()
         py = ((xy[keep, 1] - c0 + 0.5) * f - 0.5).tolist()
-        dk = [cv2.KeyPoint(x, y, d, -1, r) for x, y, d, r in zip(px, py, dsz[keep].tolist(), resp[keep].tolist())]
+        dk = [cv2.KeyPoint(x, y, d, -1, r, 0, c)
+              for x, y, d, r, c in zip(px, py, dsz[keep].tolist(), resp[keep].tolist(), cls.tolist())]
         dk, desc = self._sift.compute(img, dk)
         if desc is None or not dk:
             return empty
         xy = (_kp_xy(dk) + 0.5) / f - 0.5 + [0.0, c0]
         size = np.fromiter((k.size for k in dk), np.float64, len(dk)) / (sc * f)
-        return xy, size, np.ascontiguousarray(desc, np.float32)
+        rescued = np.fromiter((k.class_id == 1 for k in dk), bool, len(dk))
+        return xy, size, np.ascontiguousarray(desc, np.float32), rescued
+
+    def _redetect(self, grey: np.ndarray, band: tuple[int, int], kept: np.ndarray):
+        """Guided re-detection (``redetect_threshold`` > 0): keypoints (working-image positions,
+        sizes, responses) found with the lower threshold within ``redetect_px`` of where an active
+        feature of confidence ``redetect_min_confidence`` or more is expected in the band and no
+        kept band keypoint (``kept``) lies within ``redetect_px``.  The detector runs on the
+        windows around those positions only (neighbouring windows merged), upscaled as the band."""
+        empty = np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+        act = np.flatnonzero(self._alive & (self._conf >= self.redetect_min_confidence))
+        if not len(act):
+            return empty
+        y0, y1 = band
+        pred = _apply_h(self._h_prev, self._xy[act])
+        pred = pred[np.isfinite(pred).all(axis=1)]
+        pred = pred[(pred[:, 1] >= y0) & (pred[:, 1] < y1)]
+        r = self.redetect_px * self._scale
+        if len(pred) and len(kept):
+            d, _ = cKDTree(kept).query(pred, k=1, distance_upper_bound=r)
+            pred = pred[~np.isfinite(d)]
+        if not len(pred):
+            return empty
+        up = self.band_upscale
+        # context: CenSurE finds nothing within about 1.4 times its largest filter of an edge
+        b = r + 1.5 * self._star_max_size / up + 2.0
+        p = pred[np.argsort(pred[:, 0])]
+        lo, hi = p[:, 0] - b, p[:, 0] + b
+        start = np.r_[True, lo[1:] > np.maximum.accumulate(hi)[:-1]]  # windows that overlap merge
+        grp = np.cumsum(start) - 1
+        h_img, w_img = grey.shape[:2]
+        out_xy, out_size, out_resp = [], [], []
+        for g in range(int(grp[-1]) + 1):
+            q = p[grp == g]
+            c0, c1 = max(0, int(np.floor(q[:, 0].min() - b))), min(w_img, int(np.ceil(q[:, 0].max() + b)) + 1)
+            r0, r1 = max(0, int(np.floor(q[:, 1].min() - b))), min(h_img, int(np.ceil(q[:, 1].max() + b)) + 1)
+            if c1 - c0 < 4 or r1 - r0 < 4:
+                continue
+            win = grey[r0:r1, c0:c1]
+            big = win if up == 1 else cv2.resize(win, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
+            kps = self._redetect_star.detect(big)
+            if not kps:
+                continue
+            kxy = (_kp_xy(kps) + 0.5) / up - 0.5 + [c0, r0]
+            row = np.floor(_kp_xy(kps)[:, 1] / up) + r0
+            d2 = np.sum((kxy[:, None, :] - q[None, :, :]) ** 2, axis=2)
+            ok = (d2.min(axis=1) <= r * r) & (row >= y0) & (row < y1)
+            if not ok.any():
+                continue
+            ix = np.flatnonzero(ok)
+            out_xy.append(kxy[ix])
+            out_size.append(np.array([kps[i].size for i in ix.tolist()]) / up)
+            out_resp.append(np.array([kps[i].response for i in ix.tolist()]))
+        if not out_xy:
+            return empty
+        return np.concatenate(out_xy), np.concatenate(out_size), np.concatenate(out_resp)
 
     def _match(self, desc: np.ndarray, act: np.ndarray, kxy: np.ndarray | None = None,
                radius_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -1144,7 +1240,7 @@ class StableFeatureExtractor:
                     y0, y1 = max(0, y0), min(grey.shape[0], y1)
                     if y1 - y0 >= 4:
                         band = (y0, y1)
-        kxy, ksize, kdesc = self._keypoints(grey, band)
+        kxy, ksize, kdesc, rescued = self._keypoints(grey, band)
         act = np.flatnonzero(self._alive)
         radius = 0.0
         if self.guided_px > 0:
@@ -1233,6 +1329,7 @@ class StableFeatureExtractor:
 
         # unmatched keypoints become new features
         new_q = np.setdiff1d(np.arange(len(kxy)), qi, assume_unique=True)
+        new_q = new_q[~rescued[new_q]]  # a re-detected keypoint is offered to the matching only
         if len(new_q) and self.dedup_px > 0:
             # not one on top of an active feature: two features of one point spoil each
             # other's ratio test, so that neither matches again
