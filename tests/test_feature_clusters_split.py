@@ -127,3 +127,25 @@ def test_graph_split_hands_the_part_its_identity():
     assert None not in old and len(set(old)) == 2  # the graph's split gives a new identity
     new = _part_then_graph_split(True)
     assert None not in new and len(set(new)) == 1 and new[0] == old[0]
+
+
+def _crossing(keep_parts):
+    """Frame 0: the upper object (features 0-3, 20 px/s) keeps the cluster, the lower one
+    (features 4-6, 14 px/s) is the split part.  Frame 1: they have crossed (each where the other
+    was), so the box's anchor now lies on the lower object's features.  Returns the features of
+    the split part in each frame."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0,
+                                       split_keep_parts=keep_parts))
+    vel = [[20, 0]] * 4 + [[14, 0]] * 3
+    parts = []
+    for f, xy in enumerate([UP + LOW, [[x, y + 40] for x, y in UP[:3]] + [[115, 101]] + [[x, y - 40] for x, y in LOW]]):
+        c.update(snap(xy, vel, 0.1 * f, f, ids=list(range(7))))
+        lab = c.last_labels
+        child = max(set(lab.tolist()))
+        parts.append(np.flatnonzero(lab == child).tolist())
+    return parts
+
+
+def test_crossing_parts_keep_their_features():
+    assert _crossing(False) == [[4, 5, 6], [0, 1, 2, 3]]  # the split part jumps to the other object
+    assert _crossing(True) == [[4, 5, 6], [4, 5, 6]]

@@ -1056,7 +1056,9 @@ class ClusterParams:
     (within ``label_memory_s``) takes that part's identity (the graph split them apart later).
     ``split_s`` (0): the two groups must be seen in every frame for this long before the split;
     ``split_memory_s`` (0): a split part's identity is kept this long (at least
-    ``label_memory_s``) after the split last held."""
+    ``label_memory_s``) after the split last held; ``split_keep_parts`` (off): of the two groups,
+    the one whose features were more often in the split part the frame before is the split
+    part (not the one away from the anchor: two boats that cross keep their identities)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1112,6 +1114,7 @@ class ClusterParams:
     split_hand_over: bool = False
     split_s: float = 0.0
     split_memory_s: float = 0.0
+    split_keep_parts: bool = False
 
 
 class FeatureClusterer:
@@ -1169,6 +1172,7 @@ class FeatureClusterer:
         self._last_fi = -1  # frame index of the last update
         self._split_child: dict = {}  # cluster identity -> (identity of its split part, time last split)
         self._apart: set = set()  # pairs (frozensets) of a cluster and its split part this frame
+        self._child_feats: dict = {}  # split part's identity -> its features' identities last frame
         self._split_since: dict = {}  # cluster identity -> time its two groups were first seen (split_s)
         self._feat_child: dict = {}  # feature identity -> (split part's identity, time) (split_hand_over)
         self._hand_alias: dict = {}  # graph cluster -> the split part's identity it took (split_hand_over)
@@ -1228,6 +1232,7 @@ class FeatureClusterer:
         labels = labels.copy()
         new = []
         seen: set = set()
+        child_feats: dict = {}
         for c in np.flatnonzero(cnt >= need + 2):
             f = np.flatnonzero((k == c) & fin)
             fa = f[anchor[f]] if anchor is not None else f[:0]
@@ -1250,11 +1255,18 @@ class FeatureClusterer:
             else:
                 child = int(self.graph.next_id)
                 self.graph.next_id += 1
+            if p.split_keep_parts and prev is not None and child == prev[0]:
+                near = f[np.hypot(*(fv[f] - med).T) <= dv]
+                was = self._child_feats.get(child, set())
+                if sum(int(x) in was for x in snap.ids[m[near]]) > sum(int(x) in was for x in snap.ids[m[part]]):
+                    part = near  # the anchored group was the split part: it stays so
             self._split_child[cid] = (child, t)
             labels[m[part]] = child
+            child_feats[child] = set(int(x) for x in snap.ids[m[part]])
             new.append(child)
             self._apart.add(frozenset((cid, child)))
         self._split_since = {c: v for c, v in self._split_since.items() if c in seen}
+        self._child_feats = child_feats
         if p.split_hand_over:
             labels = self._hand_over_split(snap, labels, cids, new, t)
         if len(self._split_child) > 64:
