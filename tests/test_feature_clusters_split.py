@@ -27,6 +27,7 @@ LOW = [[100, 100], [105, 101], [110, 100]]  # 14 px/s (the paper's dissimilarity
 
 def _run(frames=4, low_y=0.0, **kw):
     """One cluster on two objects moving at 20 and 14 px/s; returns each frame's tracks."""
+    kw = {"split_s": 0.0, "split_keep_parts": False, "split_hand_over": False, **kw}
     c = FeatureClusterer(ClusterParams(box_dv_px_s=2.5, **kw))
     out = []
     for f in range(frames):
@@ -37,9 +38,8 @@ def _run(frames=4, low_y=0.0, **kw):
     return c, out
 
 
-def test_off_by_default_one_report():
-    assert ClusterParams().split_dv_px_s == 0.0
-    c, out = _run(confirm_s=0.0)
+def test_off_one_report():
+    c, out = _run(confirm_s=0.0, split_dv_px_s=0.0)
     assert all(len(t) == 1 for t in out)
     assert len(set(np.unique(c.last_labels[c.last_labels >= 0]))) == 1
 
@@ -63,7 +63,7 @@ def test_two_groups_of_different_velocity_are_reported_apart():
 def test_split_part_is_confirmed_after_confirm_s():
     # the lower object moves with the upper one for 0.3 s, then slows down: its part is a new
     # report, tentative until it is confirm_s (0.25 s) old, while the cluster stays confirmed
-    c = FeatureClusterer(ClusterParams(box_dv_px_s=2.5, confirm_s=0.25, split_dv_px_s=3.0))
+    c = FeatureClusterer(ClusterParams(box_dv_px_s=2.5, confirm_s=0.25, split_dv_px_s=3.0, split_s=0.0))
     states = []
     for f in range(7):
         v_low = 20.0 if f < 3 else 14.0
@@ -76,7 +76,7 @@ def test_split_part_is_confirmed_after_confirm_s():
 
 
 def test_velocities_alike_are_not_split():
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0))
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, split_s=0.0))
     xy = UP + LOW
     _, tr = c.update(snap(xy, [[20, 0]] * 4 + [[18, 0]] * 3, 0.0, 0, ids=list(range(7))))
     assert len(tr) == 1
@@ -96,6 +96,12 @@ def test_split_parts_are_not_joined_again_by_overlap():
     assert cids.tolist() == [1]
 
 
+def test_defaults():
+    p = ClusterParams()
+    assert (p.split_dv_px_s, p.split_s, p.split_memory_s, p.split_hand_over, p.split_keep_parts) == (
+        6.0, 1.0, 10.0, True, True)
+
+
 def test_split_waits_split_s():
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, split_s=0.3))
     n = []
@@ -111,7 +117,8 @@ def _part_then_graph_split(hand_over):
     is a cluster of the graph of its own.  Returns the lower object's reported identity per frame
     (the relink off, to see this rule alone)."""
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, w_cap=4.0,
-                                       relink_s=0.0, split_hand_over=hand_over))
+                                       relink_s=0.0, split_hand_over=hand_over, split_s=0.0,
+                                       split_keep_parts=False))
     out = []
     for f in range(12):
         low_y = 0.0 if f < 3 else 60.0
@@ -134,8 +141,8 @@ def _crossing(keep_parts):
     (features 4-6, 14 px/s) is the split part.  Frame 1: they have crossed (each where the other
     was), so the box's anchor now lies on the lower object's features.  Returns the features of
     the split part in each frame."""
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0,
-                                       split_keep_parts=keep_parts))
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, box_dv_px_s=2.5, split_dv_px_s=3.0, split_s=0.0,
+                                       split_hand_over=False, split_keep_parts=keep_parts))
     vel = [[20, 0]] * 4 + [[14, 0]] * 3
     parts = []
     for f, xy in enumerate([UP + LOW, [[x, y + 40] for x, y in UP[:3]] + [[115, 101]] + [[x, y - 40] for x, y in LOW]]):

@@ -1043,7 +1043,7 @@ class ClusterParams:
     velocities differ by more than ``merge_dv_px_s`` (see :func:`_gate_links`).  Tried and left
     off: ``relink_size_ratio`` (0, off: a lost identity is not relinked to a box whose height
     differs from the lost box's by more than this factor).
-    ``split_dv_px_s`` (0: off) with ``split_min_features`` (2): a cluster whose members form two
+    ``split_dv_px_s`` (6 px/s since stop 16's H4 run; 0: off) with ``split_min_features`` (2): a cluster whose members form two
     groups whose velocities relative to the scene differ by more than this (px/s) is reported as
     two objects: the part around the box's anchor (the members that move with the cluster's box
     of the frame before, see :func:`_box_members`) keeps the identity, the other part (at least
@@ -1052,11 +1052,11 @@ class ClusterParams:
     features of two boats that pass each other); the new part is reported from ``confirm_s`` on,
     so the split must last that long.  The clustering (the affinity graph) is unchanged: only the
     reports are split (see :meth:`FeatureClusterer._split_for_report`).  ``split_hand_over``
-    (off): a cluster new in the graph whose features were, for the most part, a split part's
+    (on): a cluster new in the graph whose features were, for the most part, a split part's
     (within ``label_memory_s``) takes that part's identity (the graph split them apart later).
-    ``split_s`` (0): the two groups must be seen in every frame for this long before the split;
-    ``split_memory_s`` (0): a split part's identity is kept this long (at least
-    ``label_memory_s``) after the split last held; ``split_keep_parts`` (off): of the two groups,
+    ``split_s`` (1 s; 0: at once): the two groups must be seen in every frame for this long before the split;
+    ``split_memory_s`` (10 s): a split part's identity is kept this long (at least
+    ``label_memory_s``) after the split last held; ``split_keep_parts`` (on): of the two groups,
     the one whose features were more often in the split part the frame before is the split
     part (not the one away from the anchor: two boats that cross keep their identities)."""
 
@@ -1109,12 +1109,12 @@ class ClusterParams:
     merge_dv_clusters: bool = True
     box_keep_last: bool = True
     relink_size_ratio: float = 0.0
-    split_dv_px_s: float = 0.0
+    split_dv_px_s: float = 6.0
     split_min_features: int = 2
-    split_hand_over: bool = False
-    split_s: float = 0.0
-    split_memory_s: float = 0.0
-    split_keep_parts: bool = False
+    split_hand_over: bool = True
+    split_s: float = 1.0
+    split_memory_s: float = 10.0
+    split_keep_parts: bool = True
 
 
 class FeatureClusterer:
