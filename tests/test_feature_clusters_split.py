@@ -98,8 +98,10 @@ def test_split_parts_are_not_joined_again_by_overlap():
 
 def test_defaults():
     p = ClusterParams()
+    # the split is off by default (its ~7 % cost took the bench's pan under 25 frames/s); its
+    # companions keep the tuned values, used when it is turned on (split_dv_px_s=6)
     assert (p.split_dv_px_s, p.split_s, p.split_memory_s, p.split_hand_over, p.split_keep_parts) == (
-        6.0, 1.0, 10.0, True, True)
+        0.0, 1.0, 10.0, True, True)
 
 
 def test_split_waits_split_s():
