@@ -218,3 +218,25 @@ def test_an_unambiguous_candidate_elsewhere_is_not_replaced_by_the_near_one():
 def test_bad_near_resolve_is_refused():
     with pytest.raises(ValueError, match="near_resolve_px"):
         StableFeatureExtractor(near_resolve_px=-1.0)
+
+
+def test_flann_falls_back_to_the_8th_neighbour_when_none_of_them_lies_at_a_distinct_place():
+    """FLANN path (no guided matching): ten active features packed within 3 px of A, so none of
+    the 8 nearest descriptors lies beyond 4 px of the nearest; S2 is then the 8th distance (an
+    unlike feature: the match passes), not the look-alike's (which would fail the test)."""
+    rng = np.random.default_rng(5)
+    base = _desc(rng, 1)[0]
+    noise = [0.0, 0.3, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0]  # A, its look-alike, unlike ones
+    desc = np.vstack([base + rng.normal(0, s, 128).astype(np.float32) for s in noise])
+    ang = np.linspace(0, 2 * np.pi, len(noise), endpoint=False)
+    xy = np.stack([50.0 + 2.5 * np.cos(ang), 50.0 + 2.5 * np.sin(ang)], axis=1)
+    xy[0] = [50.0, 50.0]
+    q = (base + rng.normal(0, 0.5, 128).astype(np.float32))[None]
+    res = {}
+    for sep in (0.0, 4.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS, guided_px=0.0, ratio_distinct_px=sep)
+        act = _with_active(ext, xy, desc)
+        qi, si = ext._match(q, act, np.array([[50.0, 50.0]]), 0.0)
+        res[sep] = (qi.tolist(), si.tolist())
+    assert res[0.0] == ([], [])  # the paper's S2 is the look-alike's: ambiguous
+    assert res[4.0] == ([0], [0])  # nothing beyond 4 px among the 8: the 8th distance, Q high
