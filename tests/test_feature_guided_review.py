@@ -67,11 +67,11 @@ def test_the_distinct_place_is_measured_between_the_expected_positions(seed):
     desc, q = _descriptors(seed)
     ext, act = _extractor(STORED, desc, ZOOM2)
     assert ext.ratio_distinct_px == 4.0 and ext.guided_min_quality == 0.25 and ext.near_resolve_px == 0.0
+    qi, si = ext._match(q, act, KXY, RADIUS)
+    assert qi.tolist() == [0] and si.tolist() == [0]  # Q near 1: matched to A
     nn, dist = ext._guided(q, act, KXY, RADIUS)
     assert nn[0].tolist() == [0, 1]  # A, then C (6 px from A where both are expected)
     assert dist[0, 1] == pytest.approx(np.sum((desc[1] - q[0]) ** 2), rel=1e-4)
-    qi, si = ext._match(q, act, KXY, RADIUS)
-    assert qi.tolist() == [0] and si.tolist() == [0]  # Q near 1: matched to A
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
