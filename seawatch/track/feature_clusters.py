@@ -904,6 +904,123 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
     return x0, y0, x1, y1
 
 
+@nb.njit(cache=True, nogil=True)
+def _median_of(v):
+    """``np.median`` of a 1-d finite array (the same value: the middle one, or the mean of the two
+    middle ones)."""
+    s = np.sort(v)
+    n = len(s)
+    if n % 2 == 1:
+        return s[n // 2]
+    return (s[n // 2 - 1] + s[n // 2]) / 2
+
+
+@nb.njit(cache=True, nogil=True)
+def _split_groups(history, m, k, n_clusters, anchor, dv, need):
+    """The two velocity groups of each cluster for :meth:`FeatureClusterer._split_for_report`.
+
+    ``history`` (N, W, 2) the snapshot's velocity samples (px/s, NaN: none), ``m`` (M,) the
+    clustered features (indices into it), ``k`` (M,) each one's cluster (``0 .. n_clusters - 1``),
+    ``anchor`` (M,) bool, the members inside their cluster's last box (all False: none), ``dv``
+    and ``need`` as there.  Each member's velocity is the mean of its known samples, summed in
+    the order ``np.nanmean(history[m], axis=1)`` sums them (the same values).  In a cluster with
+    at least ``need + 2`` members of known velocity: ``med``, the median velocity of the anchored
+    ones (of all when fewer than two are anchored); the members farther than ``dv`` from it
+    (``far``, at least ``need``, with two or more left); ``med2``, their median; the far ones
+    within ``dv`` of it (the part, at least ``need``), with ``med2`` farther than ``dv`` from
+    ``med``: the cluster splits.  Medians as ``np.median``'s, distances by ``hypot``, so the
+    outcome is that of the per-cluster numpy code this replaced.
+
+    Returns ``ok`` (n_clusters,) bool, the clusters that split, and ``code`` (M,) int8: 1 a member
+    of known velocity within ``dv`` of ``med``, 2 one of the part, 0 otherwise (3: far, not in
+    the part); ``code`` is set for the members of clusters with enough known velocities."""
+    n = len(m)
+    w = history.shape[1]
+    fv = np.full((n, 2), np.nan)
+    fin = np.zeros(n, np.bool_)
+    cnt = np.zeros(n_clusters, np.int64)
+    for i in range(n):
+        if w == 0:
+            continue
+        for d in range(2):
+            x = history[m[i], 0, d]
+            if x != x:
+                tot = 0.0
+                c = 0
+            else:
+                tot = x
+                c = 1
+            for j in range(1, w):
+                x = history[m[i], j, d]
+                if x != x:
+                    tot += 0.0
+                else:
+                    tot += x
+                    c += 1
+            if c > 0:
+                fv[i, d] = tot / c
+        fin[i] = np.isfinite(fv[i, 0]) and np.isfinite(fv[i, 1])
+        if fin[i]:
+            cnt[k[i]] += 1
+    ok = np.zeros(n_clusters, np.bool_)
+    code = np.zeros(n, np.int8)
+    # the members of known velocity of each cluster with enough of them, grouped (index order)
+    start = np.zeros(n_clusters + 1, np.int64)
+    for c in range(n_clusters):
+        start[c + 1] = start[c] + (cnt[c] if cnt[c] >= need + 2 else 0)
+    if start[n_clusters] == 0:
+        return ok, code
+    mem = np.empty(start[n_clusters], np.int64)
+    fill = start[:-1].copy()
+    for i in range(n):
+        c = k[i]
+        if fin[i] and cnt[c] >= need + 2:
+            mem[fill[c]] = i
+            fill[c] += 1
+    for c in range(n_clusters):
+        a, b = start[c], start[c + 1]
+        nf = b - a
+        if nf == 0:
+            continue
+        f = mem[a:b]
+        na = 0
+        for i in f:
+            if anchor[i]:
+                na += 1
+        base = np.empty(na if na >= 2 else nf, np.int64)
+        q = 0
+        for i in f:
+            if na < 2 or anchor[i]:
+                base[q] = i
+                q += 1
+        med0 = _median_of(fv[base, 0])
+        med1 = _median_of(fv[base, 1])
+        nfar = 0
+        for i in f:
+            if np.hypot(fv[i, 0] - med0, fv[i, 1] - med1) > dv:
+                code[i] = 3
+                nfar += 1
+            else:
+                code[i] = 1
+        if nfar < need or nf - nfar < 2:
+            continue
+        far = np.empty(nfar, np.int64)
+        q = 0
+        for i in f:
+            if code[i] == 3:
+                far[q] = i
+                q += 1
+        med20 = _median_of(fv[far, 0])
+        med21 = _median_of(fv[far, 1])
+        npart = 0
+        for i in far:
+            if np.hypot(fv[i, 0] - med20, fv[i, 1] - med21) <= dv:
+                code[i] = 2
+                npart += 1
+        ok[c] = npart >= need and np.hypot(med20 - med0, med21 - med1) > dv
+    return ok, code
+
+
 def _box_members(k, vel, n, max_dv, anchor=None):
     """Members ``(k: cluster index, vel: velocity relative to the scene, px/s, NaN unknown)`` that
     count in their cluster's box: those within ``max_dv`` of the cluster's median velocity (and
@@ -1214,36 +1331,27 @@ class FeatureClusterer:
         are labelled as a cluster of their own, for the reports only (the affinity graph keeps
         them together).  The anchored part keeps the cluster's identity; the other part takes the
         identity it had the last time this cluster split (within ``label_memory_s``), or a new one.
-        Returns the labels and the sorted identities with the split parts."""
+        Returns the labels and the sorted identities with the split parts.
+
+        The two groups are found for all clusters at once, in compiled code (see
+        :func:`_split_groups`); only the clusters that split go through a Python loop."""
         p = self.params
         t = float(snap.t_s)
         m = np.flatnonzero(labels >= 0)
         k = np.searchsorted(cids, labels[m])
-        with np.errstate(invalid="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            fv = np.nanmean(snap.history[m], axis=1)  # velocity relative to the scene, px/s
-        fin = np.isfinite(fv).all(axis=1)
         anchor = None
         if p.box_keep_last:
             self._cluster_boxes_now = self._last_fi  # as in _outputs (the frame before this one)
             anchor = self._box_anchor(snap, cids, k, snap.xy[m])
+        if anchor is None:
+            anchor = np.zeros(len(m), bool)
         dv, need = float(p.split_dv_px_s), max(2, int(p.split_min_features))
-        cnt = np.bincount(k[fin], minlength=len(cids))
+        ok, code = _split_groups(np.asarray(snap.history, np.float64), m, k, len(cids), anchor, dv, need)
         labels = labels.copy()
         new = []
         seen: set = set()
         child_feats: dict = {}
-        for c in np.flatnonzero(cnt >= need + 2):
-            f = np.flatnonzero((k == c) & fin)
-            fa = f[anchor[f]] if anchor is not None else f[:0]
-            med = np.median(fv[fa if len(fa) >= 2 else f], axis=0)
-            far = f[np.hypot(*(fv[f] - med).T) > dv]
-            if len(far) < need or len(f) - len(far) < 2:
-                continue
-            med2 = np.median(fv[far], axis=0)
-            part = far[np.hypot(*(fv[far] - med2).T) <= dv]  # the other group: alike among themselves
-            if len(part) < need or np.hypot(*(med2 - med)) <= dv:
-                continue
+        for c in np.flatnonzero(ok).tolist():
             cid = int(cids[c])
             seen.add(cid)
             since = self._split_since.setdefault(cid, t)
@@ -1255,24 +1363,28 @@ class FeatureClusterer:
             else:
                 child = int(self.graph.next_id)
                 self.graph.next_id += 1
+            mine = k == c
+            part = m[mine & (code == 2)]  # indices into the snapshot
             if p.split_keep_parts and prev is not None and child == prev[0]:
-                near = f[np.hypot(*(fv[f] - med).T) <= dv]
+                near = m[mine & (code == 1)]
                 was = self._child_feats.get(child, set())
-                if sum(int(x) in was for x in snap.ids[m[near]]) > sum(int(x) in was for x in snap.ids[m[part]]):
+                if sum(x in was for x in snap.ids[near].tolist()) > sum(x in was for x in snap.ids[part].tolist()):
                     part = near  # the anchored group was the split part: it stays so
             self._split_child[cid] = (child, t)
-            labels[m[part]] = child
-            child_feats[child] = set(int(x) for x in snap.ids[m[part]])
+            labels[part] = child
+            child_feats[child] = set(snap.ids[part].tolist())
             new.append(child)
             self._apart.add(frozenset((cid, child)))
         self._split_since = {c: v for c, v in self._split_since.items() if c in seen}
         self._child_feats = child_feats
+        changed = bool(new)
         if p.split_hand_over:
-            labels = self._hand_over_split(snap, labels, cids, new, t)
+            labels, handed = self._hand_over_split(snap, labels, cids, new, t)
+            changed = changed or handed
         if len(self._split_child) > 64:
             self._split_child = {a: b for a, b in self._split_child.items()
                                  if t - b[1] <= max(p.label_memory_s, p.split_memory_s)}
-        if new or p.split_hand_over:
+        if changed:  # otherwise the identities are the graph's (each holds a member)
             cids = np.unique(labels[labels >= 0]).astype(np.int64)
         return labels, cids
 
@@ -1280,24 +1392,27 @@ class FeatureClusterer:
         """``params.split_hand_over``: a cluster born in the graph this frame whose features were
         mostly a split part's takes that part's identity (when no cluster reports it now), and
         keeps it while the graph keeps the cluster; then remembers the split parts' features.
-        Returns the labels."""
+        Returns the labels and whether any changed."""
         p = self.params
         fc = self._feat_child
         alias = self._hand_alias
-        live = set(int(c) for c in cids)
+        cl = cids.tolist()
+        live = set(cl)
         self._hand_alias = alias = {c: a for c, a in alias.items() if c in live}
         used = (live - set(alias)) | set(alias.values()) | set(new)
-        for c in cids:
-            c = int(c)
+        changed = False
+        birth = self.graph.birth_s
+        for c in cl:
             if c in alias:
                 labels[labels == c] = alias[c]
+                changed = True
                 continue
-            if self.graph.birth_s.get(c, -1.0) != t:
+            if birth.get(c, -1.0) != t:
                 continue
             mem = np.flatnonzero(labels == c)
             votes: dict = {}
-            for fid in snap.ids[mem]:
-                e = fc.get(int(fid))
+            for fid in snap.ids[mem].tolist():
+                e = fc.get(fid)
                 if e is not None and t - e[1] <= p.label_memory_s + 1e-9:
                     votes[e[0]] = votes.get(e[0], 0) + 1
             if not votes:
@@ -1305,15 +1420,15 @@ class FeatureClusterer:
             child, nv = max(votes.items(), key=lambda kv: kv[1])
             if 2 * nv >= len(mem) and child not in used:
                 labels[mem] = child
+                changed = True
                 alias[c] = child
                 used.discard(c)
                 used.add(child)
         for child in set(new) | set(alias.values()):
-            for fid in snap.ids[labels == child]:
-                fc[int(fid)] = (child, t)
+            fc.update(dict.fromkeys(snap.ids[labels == child].tolist(), (child, t)))
         if len(fc) > 4096:
             self._feat_child = {a: b for a, b in fc.items() if t - b[1] <= p.label_memory_s}
-        return labels
+        return labels, changed
 
     def _sticky_pairs(self, snap, labels, cids, boxes) -> set:
         """Clusters reported as one object in the last frame stay one while each box lies, by at
