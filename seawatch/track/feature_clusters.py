@@ -1160,7 +1160,7 @@ class ClusterParams:
     velocities differ by more than ``merge_dv_px_s`` (see :func:`_gate_links`).  Tried and left
     off: ``relink_size_ratio`` (0, off: a lost identity is not relinked to a box whose height
     differs from the lost box's by more than this factor).
-    ``split_dv_px_s`` (0: off, the default; 6 px/s is the tuned value: on by default at 786ea76, turned off again because it took the bench's `pan` speed under 25 frames/s; session 17 cut its own cost from about 1.1 to 0.3 ms a frame, output unchanged, but the paired stage ratio on `pan` seed 1 measured 1.044, above the 1.02 set for turning it on) with ``split_min_features`` (2): a cluster whose members form two
+    ``split_dv_px_s`` (6 px/s, the tuned value, on by default again since session 17; 0: off. On at 786ea76, turned off in 16106ee because its cost, about 7 %, took the bench's `pan` under 25 frames/s; session 17 cut its own cost from about 1.1 to 0.3 ms a frame with the output unchanged, and a second paired run on `pan` seed 1 measured on / off 1.004, within the 1.02 set for turning it on; the first had given 1.044, before and after the change alike) with ``split_min_features`` (2): a cluster whose members form two
     groups whose velocities relative to the scene differ by more than this (px/s) is reported as
     two objects: the part around the box's anchor (the members that move with the cluster's box
     of the frame before, see :func:`_box_members`) keeps the identity, the other part (at least
@@ -1226,7 +1226,7 @@ class ClusterParams:
     merge_dv_clusters: bool = True
     box_keep_last: bool = True
     relink_size_ratio: float = 0.0
-    split_dv_px_s: float = 0.0
+    split_dv_px_s: float = 6.0
     split_min_features: int = 2
     split_hand_over: bool = True
     split_s: float = 1.0
