@@ -76,14 +76,22 @@ def _in_box(xy, b):
     return int(((xy[:, 0] >= b[0]) & (xy[:, 0] <= b[0] + b[2]) & (xy[:, 1] >= b[1]) & (xy[:, 1] <= b[1] + b[3])).sum())
 
 
-def main(argv=None) -> int:
-    args = _parse(argv)
+def parse_params(text: str, prog: str) -> dict | None:
+    """``--params`` as a JSON object; None (with the reason on stderr, naming ``prog``) when it is not one."""
     try:
-        kw = json.loads(args.params)
+        kw = json.loads(text)
         if not isinstance(kw, dict):
             raise ValueError("not a JSON object")
     except ValueError as exc:
-        print(f"sf_diagnose: --params {args.params!r}: {exc}", file=sys.stderr)
+        print(f"{prog}: --params {text!r}: {exc}", file=sys.stderr)
+        return None
+    return kw
+
+
+def main(argv=None) -> int:
+    args = _parse(argv)
+    kw = parse_params(args.params, "sf_diagnose")
+    if kw is None:
         return 2
     import cv2
 

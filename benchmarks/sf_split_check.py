@@ -150,12 +150,10 @@ def main(argv=None) -> int:
         print(f"identical: {len(a['rows'])} frames, {nrep} reports, {len(ids)} identities "
               f"({a['name']} vs {b['name']})")
         return 0
-    try:
-        params = json.loads(args.params)
-        if not isinstance(params, dict):
-            raise ValueError("not a JSON object")
-    except ValueError as exc:
-        print(f"sf_split_check: --params {args.params!r}: {exc}", file=sys.stderr)
+    from sf_diagnose import parse_params  # this folder is on the path when run as a script
+
+    params = parse_params(args.params, "sf_split_check")
+    if params is None:
         return 2
     inputs = _inputs(args)
     if args.cmd == "dump":
