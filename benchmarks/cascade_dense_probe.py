@@ -198,23 +198,24 @@ def scan_level(D, Q, cols, L, win_w, win_h, y_lo, y_last, n_dense, var_off, star
     ok = np.empty(L, np.bool_)
     acc = np.empty(L, np.float64)
     depth = np.empty(L, np.int64)
+    rb = np.empty(L, np.uint64)
+    rf = np.empty(L, np.float32)
+    racc = np.empty(L, np.float64)
     n = 0
     for oy in range(y_lo, y_last + 1, 2):
         row = oy * cols
         # the variance factor of every position
         s1 = D[row + var_off[0]:]; s2 = D[row + var_off[1]:]; s3 = D[row + var_off[2]:]; s4 = D[row + var_off[3]:]
         q1 = Q[row + var_off[0]:]; q2 = Q[row + var_off[1]:]; q3 = Q[row + var_off[2]:]; q4 = Q[row + var_off[3]:]
-        for x in range(L):
+        for x in range(L):  # branch-free, so that it vectorises
             s = float(np.int32(s1[x] - s2[x] - s3[x] + s4[x]))
             q = q1[x] - q2[x] - q3[x] + q4[x]
             nf = area * q - s * s
-            if nf > 0.0:
-                f = np.float32(1.0 / np.sqrt(nf))
-                fac[x] = f
-                ok[x] = area * float(f) < 0.1  # OpenCV: enough variance
-            else:
-                fac[x] = np.float32(1.0)
-                ok[x] = False
+            pos = nf > 0.0
+            f = np.float32(1.0 / np.sqrt(max(nf, 1e-300)))
+            f = f if pos else np.float32(1.0)
+            fac[x] = f
+            ok[x] = pos and area * float(f) < 0.1  # OpenCV: enough variance
             depth[x] = 0
         # the first stages, dense; depth = the number of stages passed in a row
         for st in range(n_dense):
@@ -232,6 +233,7 @@ def scan_level(D, Q, cols, L, win_w, win_h, y_lo, y_last, n_dense, var_off, star
             if alive == 0:
                 break
         # OpenCV's row walk: skip the next position after a first-stage reject
+        m = 0
         x = 0
         while x < L:
             if not ok[x]:
@@ -240,12 +242,47 @@ def scan_level(D, Q, cols, L, win_w, win_h, y_lo, y_last, n_dense, var_off, star
             if depth[x] == 0:
                 x += 2
                 continue
-            if depth[x] == n_dense and _later_stages(I, oy * stride + 2 * x, fac[x], n_dense, start, thr,
-                                                     nrect, off_i, wts, split, left, right):
-                out[n, 0] = 2 * x
-                out[n, 1] = oy
-                n += 1
+            if depth[x] == n_dense:
+                rb[m] = np.uint64(oy * stride + 2 * x)
+                rf[m] = fac[x]
+                m += 1
             x += 1
+        # the later stages, breadth-first over the row's survivors (their corners stay in the cache)
+        for st in range(n_dense, thr.shape[0]):
+            if m == 0:
+                break
+            for i in range(m):
+                racc[i] = 0.0
+            for j in range(start[st], start[st + 1]):
+                o = off_i[j]
+                o0 = o[0]; o1 = o[1]; o2 = o[2]; o3 = o[3]; o4 = o[4]; o5 = o[5]; o6 = o[6]; o7 = o[7]
+                w0 = wts[j, 0]; w1 = wts[j, 1]; sp = split[j]; lf = left[j]; rt = right[j]
+                if nrect[j] == 3:
+                    o8 = o[8]; o9 = o[9]; o10 = o[10]; o11 = o[11]; w2 = wts[j, 2]
+                    for i in range(m):
+                        p = rb[i]
+                        v = w0 * np.float32(np.int32(I[p + o0] - I[p + o1] - I[p + o2] + I[p + o3]))
+                        v = v + w1 * np.float32(np.int32(I[p + o4] - I[p + o5] - I[p + o6] + I[p + o7]))
+                        v = v + w2 * np.float32(np.int32(I[p + o8] - I[p + o9] - I[p + o10] + I[p + o11]))
+                        racc[i] += lf if v * rf[i] < sp else rt
+                else:
+                    for i in range(m):
+                        p = rb[i]
+                        v = w0 * np.float32(np.int32(I[p + o0] - I[p + o1] - I[p + o2] + I[p + o3]))
+                        v = v + w1 * np.float32(np.int32(I[p + o4] - I[p + o5] - I[p + o6] + I[p + o7]))
+                        racc[i] += lf if v * rf[i] < sp else rt
+            t = thr[st]
+            k = 0
+            for i in range(m):
+                if racc[i] >= t:
+                    rb[k] = rb[i]
+                    rf[k] = rf[i]
+                    k += 1
+            m = k
+        for i in range(m):
+            out[n, 0] = rb[i] % stride
+            out[n, 1] = rb[i] // stride
+            n += 1
     return n
 
 
