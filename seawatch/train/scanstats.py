@@ -450,6 +450,44 @@ def played_compare(before_commit: str, model_xml: str | Path, parts: dict, setti
     return out
 
 
+def scanner_check(models, parts: dict, settings=None, size=(704, 576), passes: int = 3, seq_len: int = 20) -> dict:
+    """The Numba scanner (:mod:`seawatch.detect.cascade_scan`) against OpenCV's in the whole
+    detector: every model (with ``settings``: :class:`~seawatch.detect.cascade.CascadeParams`
+    overrides, e.g. session 15's v6 at ``{"scale_factor": 1.1, "min_neighbors": 16}``; None:
+    its own) on the 2 px grid, played on the MarDCT training and validation frames as the bench
+    plays its speed frames (:func:`played_cpu_s`), scanner "opencv" and "numba" interleaved.
+    Returns per model: whether the detections (boxes and scores) were identical on every frame of
+    every pass, the number of frames that differ, and the median frames/s of each and their ratio.
+    Never MarDCT video2, never the held-out part."""
+    from seawatch.detect.cascade import CascadeDetector
+    from seawatch.types import Frame
+
+    ims = [im for p in ("train", "val") for im in parts[p] if im.source == "mardct"]
+    seqs = played_sequences(ims, size, seq_len)
+    out = {}
+    for m in models:
+        kw = dict(settings or {}, grid_step_px=2)
+        dets = {sc: CascadeDetector(m, scanner=sc, **kw) for sc in ("opencv", "numba")}
+        n_diff = n_frames = 0
+        for seq in seqs:  # the detections, frame by frame
+            for d in dets.values():
+                d.reset()
+            for i, img in enumerate(seq):
+                fr = Frame(img, i / 25.0, i)
+                a, b = (dets[sc].detect(fr) for sc in ("opencv", "numba"))
+                n_frames += 1
+                n_diff += not (np.array_equal(a.boxes, b.boxes) and np.array_equal(a.scores, b.scores))
+        tps = played_cpu_s(dets, seqs, passes)
+        fps = {sc: 1.0 / float(np.median([t for p in tps[sc] for t in p])) for sc in dets}
+        out[Path(m).stem] = {"settings": {k: v for k, v in kw.items()}, "frames": n_frames,
+                             "frames_differing": n_diff, "identical": n_diff == 0,
+                             "fps_opencv": fps["opencv"], "fps_numba": fps["numba"],
+                             "speed_ratio": fps["numba"] / fps["opencv"],
+                             "fps_passes": {sc: [1.0 / float(np.median(p)) for p in tps[sc]] for sc in dets}}
+        print(json.dumps({Path(m).stem: out[Path(m).stem]}, indent=1), flush=True)
+    return out
+
+
 def choose_speed_setting(rows, target_fps: float) -> dict | None:
     """Step 3 of session 14's rule: among the candidate rows (each with ``"score"``, the validation
     score, and ``"fps"``) those reaching ``target_fps``, the one with the highest score (the
@@ -556,7 +594,10 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--model", type=Path, required=True)
     ap.add_argument("--parts", default="train,val", help="split parts to use (train,val; never video2)")
-    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule, playedrule, samecheck (comma-separated)")
+    ap.add_argument("--what", default="stages,region", help="stages, region, speed, horizon, speedrule, playedrule, "
+                    "samecheck, scannercheck (comma-separated)")
+    ap.add_argument("--settings", default="", help="with --what scannercheck: detector settings as JSON, "
+                    "e.g. '{\"scale_factor\": 1.1, \"min_neighbors\": 16}' (default: each model's own)")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--speed-models", default="", help="with --what speed: more models, comma-separated")
     ap.add_argument("--out", type=Path, default=None, help="write the figures as JSON here")
@@ -592,6 +633,15 @@ def main(argv=None) -> int:
         print(json.dumps(res["horizon"], indent=1))
     if "speedrule" in what:
         res["speed_settings"] = speed_settings(a.model, parts)
+    if "scannercheck" in what:
+        try:
+            settings = json.loads(a.settings) if a.settings.strip() else None
+        except ValueError as exc:
+            ap.error(f"--settings: not JSON: {exc}")
+        if settings is not None and not isinstance(settings, dict):
+            ap.error("--settings: a JSON object is needed")
+        models = [a.model] + [Path(m) for m in a.speed_models.split(",") if m.strip()]
+        res["scanner_check"] = scanner_check(models, parts, settings)
     if "samecheck" in what:
         res["played_compare"] = played_compare(a.before, a.model, parts)
         print(json.dumps(res["played_compare"], indent=1))
