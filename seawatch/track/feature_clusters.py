@@ -666,6 +666,193 @@ def _window_deviation(win, bg, r0, r1, c0, c1):
     return out
 
 
+@nb.njit(cache=True, nogil=True)
+def _core_peak_u8(win, bg, r0, r1, c0, c1):
+    """For an 8-bit window: the 90th percentile (``np.percentile``'s value, its "linear" method
+    with its float32 interpolation) of the largest channel deviation from the row's background over
+    ``win[r0:r1, c0:c1]``, 0 when that is empty; the deviations are multiples of half a grey level
+    (the background is a whole or half level), so their order statistics come from a histogram."""
+    if r1 <= r0 or c1 <= c0:
+        return np.float32(0.0)
+    nc = win.shape[2]
+    hist = np.zeros(512, np.int64)
+    for r in range(r0, r1):
+        for q in range(c0, c1):
+            m = np.float32(0.0)
+            for c in range(nc):
+                d = abs(np.float32(win[r, q, c]) - bg[r, c])
+                if d > m:
+                    m = d
+            hist[int(m * 2.0 + 0.5)] += 1
+    n = (r1 - r0) * (c1 - c0)
+    vi = (n - 1) * 0.9
+    if vi >= n - 1:
+        return np.float32(_hist_rank(hist, n - 1) * 0.5)
+    lo = int(np.floor(vi))
+    g = vi - np.floor(vi)
+    a = np.float32(_hist_rank(hist, lo) * 0.5)
+    b = np.float32(_hist_rank(hist, lo + 1) * 0.5)
+    d = b - a
+    if g >= 0.5:
+        return b - d * np.float32(1.0 - g)
+    return a + d * np.float32(g)
+
+
+@nb.njit(cache=True, nogil=True)
+def _close_label(fg):
+    """Labels (int32, 0 background, components numbered 1.. in no particular order) of the
+    8-connected components of ``fg`` closed by a 3x3 square (``cv2.morphologyEx(MORPH_CLOSE)``
+    with its default border: pixels outside the image neither dilate nor erode), and their count."""
+    rows, cols = fg.shape
+    dil = np.zeros((rows, cols), np.bool_)
+    for r in range(rows):
+        for c in range(cols):
+            if fg[r, c]:
+                for rr in range(max(r - 1, 0), min(r + 2, rows)):
+                    for cc in range(max(c - 1, 0), min(c + 2, cols)):
+                        dil[rr, cc] = True
+    par = np.empty(rows * cols + 1, np.int64)
+    lab = np.zeros((rows, cols), np.int32)
+    nxt = 1
+    for r in range(rows):
+        for c in range(cols):
+            # eroded: every dilated pixel of the 3x3 neighbourhood inside the image is set
+            on = True
+            for rr in range(max(r - 1, 0), min(r + 2, rows)):
+                for cc in range(max(c - 1, 0), min(c + 2, cols)):
+                    if not dil[rr, cc]:
+                        on = False
+            if not on:
+                continue
+            cur = 0
+            # the neighbours already visited: left, and the three above
+            for dr, dc in ((0, -1), (-1, -1), (-1, 0), (-1, 1)):
+                rr, cc = r + dr, c + dc
+                if rr < 0 or cc < 0 or cc >= cols:
+                    continue
+                o = lab[rr, cc]
+                if o == 0:
+                    continue
+                while par[o] != o:
+                    o = par[o]
+                if cur == 0:
+                    cur = o
+                elif o != cur:
+                    if o < cur:
+                        par[cur] = o
+                        cur = o
+                    else:
+                        par[o] = cur
+            if cur == 0:
+                par[nxt] = nxt
+                cur = nxt
+                nxt += 1
+            lab[r, c] = cur
+    # flatten: every label to its root, roots renumbered 1..n
+    new = np.zeros(nxt, np.int32)
+    n = 0
+    for i in range(1, nxt):
+        o = i
+        while par[o] != o:
+            o = par[o]
+        if o == i:
+            n += 1
+            new[i] = n
+    for i in range(1, nxt):
+        o = i
+        while par[o] != o:
+            o = par[o]
+        new[i] = new[o]
+    for r in range(rows):
+        for c in range(cols):
+            if lab[r, c]:
+                lab[r, c] = new[lab[r, c]]
+    return lab, n
+
+
+@nb.njit(cache=True, nogil=True)
+def _segment_object(dev, thr, max_fill, r0, r1, c0, c1, left_edge, right_edge):
+    """The foreground (``dev > thr``; ``thr`` float32 as numpy compares a float32 array with a
+    Python float) closed by a 3x3 square, its 8-connected components touching the core
+    ``[r0:r1, c0:c1]`` and not the window's left (``left_edge``) or right (``right_edge``) column:
+    ``(code, obj, x0, y0, x1, y1)`` with ``obj`` their mask and ``x0, y0, x1, y1`` (end exclusive)
+    its extent.  ``code``: 0 found; 1 the foreground fills more than ``max_fill`` of the window or
+    is empty; 2 every component touching the core was left out for the edges; 3 none touches it."""
+    rows, cols = dev.shape
+    fg = np.empty((rows, cols), np.bool_)
+    cnt = 0
+    for r in range(rows):
+        for c in range(cols):
+            f = dev[r, c] > thr
+            fg[r, c] = f
+            if f:
+                cnt += 1
+    obj = np.zeros((rows, cols), np.bool_)
+    if cnt / (rows * cols) > max_fill or cnt == 0:
+        return 1, obj, 0, 0, 0, 0
+    lab, n = _close_label(fg)
+    hit = np.zeros(n + 1, np.bool_)
+    for r in range(r0, r1):
+        for c in range(c0, c1):
+            hit[lab[r, c]] = True
+    hit[0] = False
+    any_hit = False
+    for i in range(1, n + 1):
+        if hit[i]:
+            any_hit = True
+    if not any_hit:
+        return 3, obj, 0, 0, 0, 0
+    for r in range(rows):
+        if left_edge:
+            hit[lab[r, 0]] = False
+        if right_edge:
+            hit[lab[r, cols - 1]] = False
+    x0, y0, x1, y1 = cols, rows, -1, -1
+    for r in range(rows):
+        for c in range(cols):
+            if hit[lab[r, c]]:
+                obj[r, c] = True
+                x0 = min(x0, c)
+                x1 = max(x1, c)
+                y0 = min(y0, r)
+                y1 = max(y1, r)
+    if x1 < 0:
+        return 2, obj, 0, 0, 0, 0
+    return 0, obj, x0, y0, x1 + 1, y1 + 1
+
+
+@nb.njit(cache=True, nogil=True)
+def _top_row(dev, thr, x0, y0, x1, y1, left_edge, right_edge):
+    """:func:`_extend_top`'s row after its quick check: the first row above ``y0`` holding, within
+    the columns ``x0:x1``, a pixel of a component (of ``dev > thr`` closed by a 3x3 square,
+    8-connected) that touches the rows ``y0:min(y0 + 2, y1)`` there and reaches neither the left
+    (``left_edge``) nor the right (``right_edge``) column; ``y0`` when none."""
+    rows, cols = dev.shape
+    fg = np.empty((rows, cols), np.bool_)
+    for r in range(rows):
+        for c in range(cols):
+            fg[r, c] = dev[r, c] > thr
+    lab, n = _close_label(fg)
+    if n == 0:
+        return y0
+    hit = np.zeros(n + 1, np.bool_)
+    x1 = min(x1, cols)
+    for r in range(y0, min(y0 + 2, y1, rows)):
+        for c in range(x0, x1):
+            hit[lab[r, c]] = True
+    hit[0] = False
+    for r in range(rows):
+        if left_edge:
+            hit[lab[r, 0]] = False
+        if right_edge:
+            hit[lab[r, cols - 1]] = False
+    for r in range(0, min(y0, rows)):
+        for c in range(x0, x1):
+            if hit[lab[r, c]]:
+                return r
+    return y0
+
+
 def grow_boxes(
     image: np.ndarray, boxes: np.ndarray, cores: np.ndarray, grow: float = 1.0, min_grow_px: float = 6.0,
     k_sigma: float = 3.0, min_contrast: float = 10.0, border_px: int = 3, max_fill: float = 0.5,
@@ -797,34 +984,26 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     core = (slice(c0y, max(c1y, c0y + 1)), slice(c0x, max(c1x, c0x + 1)))
     r0, r1 = min(core[0].start, win.shape[0]), min(core[0].stop, win.shape[0])
     q0, q1 = min(core[1].start, win.shape[1]), min(core[1].stop, win.shape[1])
-    dev_core = _window_deviation(win, bg, r0, r1, q0, q1)
-    peak = float(np.percentile(dev_core, 90)) if dev_core.size else 0.0
+    if win.dtype == np.uint8:
+        peak = float(_core_peak_u8(win, bg, r0, r1, q0, q1))  # np.percentile(dev_core, 90), 0 when empty
+    else:
+        dev_core = _window_deviation(win, bg, r0, r1, q0, q1)
+        peak = float(np.percentile(dev_core, 90)) if dev_core.size else 0.0
     contrast = peak / max(sigma, 1.0)
     if large or peak <= max(k_sigma * sigma, min_contrast):
         return None, contrast, not large  # the core does not stand out: nothing to grow to (here)
     dev = _window_deviation(win, bg, 0, win.shape[0], 0, win.shape[1])
     thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
-    fg = (dev > thr).astype(np.uint8)
-    if fg.mean() > max_fill:
-        return None, contrast, False
-    fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
-    nlab, lab, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
-    if nlab <= 1:
-        return None, contrast, False
-    sub = lab[core]
-    hit = np.unique(sub[sub > 0])
-    # a component reaching the window's left or right edge is background structure (coast,
-    # horizon, sea texture), not the object (a mast or a reflection may reach the top or
-    # the bottom)
-    # the image's own border is not the window's edge: an object may be cut by it
-    edge = np.unique(np.r_[lab[:, 0] if x0 > 0 else [], lab[:, -1] if x1 < ww else []]).astype(np.int64)
-    at_edge = len(hit) > 0
-    hit = np.setdiff1d(hit, edge)
-    if len(hit) == 0:
-        return None, contrast, at_edge
-    st = stats[hit]  # left, top, width, height, area of each component
-    nx0, nx1 = st[:, 0].min() + x0, (st[:, 0] + st[:, 2]).max() + x0
-    ny0, ny1 = st[:, 1].min() + y0, (st[:, 1] + st[:, 3]).max() + y0
+    # the foreground (numpy compares the float32 deviations with thr cast to float32) closed by
+    # a 3x3 square, its components touching the core; a component reaching the window's left or
+    # right edge is background structure (coast, horizon, sea texture), not the object (a mast or
+    # a reflection may reach the top or the bottom); the image's own border is not the window's
+    # edge: an object may be cut by it
+    code, obj, nx0, ny0, nx1, ny1 = _segment_object(dev, np.float32(thr), float(max_fill), r0, r1, q0, q1,
+                                                    x0 > 0, x1 < ww)
+    if code:
+        return None, contrast, code == 2
+    nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     # the object must cover most of the core (not a speck of noise at its corner)
     cw1, ch1 = max(cw, 1.0), max(ch, 1.0)
     iw = min(nx1, cx + cw1) - max(nx0, cx)
@@ -833,7 +1012,7 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
         return None, contrast, False
     if waterline_frac > 0 or wake_frac > 0:
         core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
-        nx0, ny0, nx1, ny1 = _trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
+        nx0, ny0, nx1, ny1 = _trim_object(dev, obj, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                           waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
@@ -851,17 +1030,7 @@ def _extend_top(dev, ext, thr, left_edge, right_edge):
     x0, y0, x1, y1 = (int(v) for v in ext)
     if y0 <= 0 or not (dev[max(y0 - 2, 0):y0, x0:x1] > thr).any():
         return y0  # nothing above the object's top within reach of the closing
-    fg = cv2.morphologyEx((dev > thr).astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
-    nlab, lab = cv2.connectedComponents(fg, connectivity=8)
-    if nlab <= 1:
-        return y0
-    hit = np.unique(lab[y0:min(y0 + 2, y1), x0:x1])
-    edge = np.r_[lab[:, 0] if left_edge else [], lab[:, -1] if right_edge else []].astype(np.int64)
-    hit = np.setdiff1d(hit[hit > 0], edge)
-    if not len(hit):
-        return y0
-    rows = np.flatnonzero(np.isin(lab[:y0, x0:x1], hit).any(axis=1))
-    return int(rows[0]) if len(rows) else y0
+    return int(_top_row(dev, np.float32(thr), x0, y0, x1, y1, bool(left_edge), bool(right_edge)))
 
 
 def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False):
