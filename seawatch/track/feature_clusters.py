@@ -29,7 +29,6 @@ import dataclasses
 import warnings
 from dataclasses import dataclass
 
-import cv2
 import numba as nb
 import numpy as np
 from scipy.sparse import coo_matrix
