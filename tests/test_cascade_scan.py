@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from seawatch.detect.cascade import CascadeDetector, default_model_path
-from seawatch.detect.cascade_scan import PackedCascade, deinterleave
+from seawatch.detect.cascade_scan import PackedCascade, _integrals, deinterleave
 from seawatch.train.model import read_cascade_xml, write_cascade_xml
 from seawatch.types import Frame
 
@@ -47,9 +47,8 @@ def _opencv_windows(clf, img, ww, wh) -> set:
 
 
 def _scan(pc, img, step_x=2) -> set:
-    ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
     y_last = ((img.shape[0] - pc.height_px) // 2) * 2
-    return set(map(tuple, pc.scan(ii, sq, 0, y_last, step_x=step_x).tolist()))
+    return set(map(tuple, pc.scan(img, 0, y_last, step_x=step_x).tolist()))
 
 
 @pytest.mark.parametrize("n_stages", [1, 2, 4, 7, 20])
@@ -87,16 +86,36 @@ def test_coarse_grid_is_every_fourth_column_without_the_skip(tmp_path):
     assert {p for p in _scan(pc, img) if p[0] % 4 == 0} <= got
 
 
+def test_levels_of_neighbouring_widths_share_no_stale_offsets(tmp_path):
+    """The corner offsets are cached per level shape: widths 260 and 261 split into the same
+    number of columns, and each must still get its own row stride."""
+    path = _truncated(tmp_path, 4)
+    pc = PackedCascade(path)
+    imgs = [np.ascontiguousarray(_scene(s, w=262)[:, :w]) for s, w in ((1, 261), (2, 260), (3, 261))]
+    for img in imgs:
+        assert _scan(pc, img) == _scan(PackedCascade(path), img)
+
+
 def test_rows_from_a_first_row(tmp_path):
     """Scanning from row y_lo gives the full scan's windows of those rows."""
     path = _truncated(tmp_path, 2)
     pc = PackedCascade(path)
     img = _scene(3)
-    ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
     y_last = ((img.shape[0] - pc.height_px) // 2) * 2
-    full = set(map(tuple, pc.scan(ii, sq, 0, y_last).tolist()))
-    part = set(map(tuple, pc.scan(ii, sq, 40, y_last - 10).tolist()))
+    full = set(map(tuple, pc.scan(img, 0, y_last).tolist()))
+    part = set(map(tuple, pc.scan(img, 40, y_last - 10).tolist()))
     assert part == {p for p in full if 40 <= p[1] <= y_last - 10} and part
+
+
+@pytest.mark.parametrize("k", [2, 4])
+def test_integrals_equal_opencvs(k):
+    img = _scene(7, h=71, w=63)
+    ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
+    I, D, Q = _integrals(img, k, (ii.shape[1] + k - 1) // k)
+    assert np.array_equal(I.reshape(ii.shape), ii)
+    d, cols = deinterleave(ii, k)
+    q, _ = deinterleave(sq, k)
+    assert np.array_equal(D, d) and np.array_equal(Q, q)
 
 
 def test_deinterleave():
@@ -113,12 +132,13 @@ def test_deinterleave():
 def test_bad_arguments(tmp_path):
     pc = PackedCascade(V6)
     img = _scene(0)
-    ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
     with pytest.raises(ValueError, match="step_x"):
-        pc.scan(ii, sq, 0, 10, step_x=3)
+        pc.scan(img, 0, 10, step_x=3)
     with pytest.raises(ValueError, match="even"):
-        pc.scan(ii, sq, 1, 11)
-    assert pc.scan(ii, sq, 0, 1000).shape == (0, 2)  # rows past the image: nothing, no crash
+        pc.scan(img, 1, 11)
+    with pytest.raises(ValueError, match="uint8"):
+        pc.scan(img.astype(np.float32), 0, 10)
+    assert pc.scan(img, 0, 1000).shape == (0, 2)  # rows past the image: nothing, no crash
     with pytest.raises(FileNotFoundError):
         PackedCascade(tmp_path / "missing.xml")
     with pytest.raises(ValueError, match="scanner"):

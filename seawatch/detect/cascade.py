@@ -307,8 +307,7 @@ class CascadeDetector:
             y_stop = y_last + wh
             if step == 2 and self._use_numba():
                 # the same windows as OpenCV's call below (tests/test_cascade_scan.py)
-                ii, sq = cv2.integral2(lvl[y_lo:y_stop], sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
-                r = self.packed.scan(ii, sq, 0, y_last - y_lo, step_x=max(2, p.grid_step_x_px))
+                r = self.packed.scan(lvl[y_lo:y_stop], 0, y_last - y_lo, step_x=max(2, p.grid_step_x_px))
             else:
                 r = self._opencv_level(lvl, y_lo, y_stop, step)
             if len(r) == 0:

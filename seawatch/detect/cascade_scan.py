@@ -83,25 +83,13 @@ class PackedCascade:
         self.n_dense = int(min(max(n_dense, 1), self.n_stages))
         self._offsets: dict = {}
 
-    def _corner_offsets(self, key, corner) -> np.ndarray:
-        off = self._offsets.get(key)
-        if off is None:
-            x, y, w, h = (self.rects[..., i] for i in range(4))
-            off = np.stack([corner(y, x), corner(y, x + w), corner(y + h, x), corner(y + h, x + w)], axis=-1)
-            off = np.ascontiguousarray(off.reshape(len(self.rects), 12), np.int64)
-            if len(self._offsets) > 128:
-                self._offsets.clear()
-            self._offsets[key] = off
-        return off
-
-    def scan(self, ii: np.ndarray, sq: np.ndarray, y_lo: int, y_last: int, step_x: int = 2) -> np.ndarray:
-        """Accepted windows ``(n, 2)`` as (x, y) of one level.
+    def scan(self, img: np.ndarray, y_lo: int, y_last: int, step_x: int = 2) -> np.ndarray:
+        """Accepted windows ``(n, 2)`` as (x, y) of one pyramid level.
 
         Parameters
         ----------
-        ii, sq : ndarray
-            The level's integral images, ``cv2.integral2(level, sdepth=cv2.CV_32S,
-            sqdepth=cv2.CV_64F)``.
+        img : ndarray
+            The level image, uint8 (the rows the windows cover; a view is fine).
         y_lo, y_last : int
             First and last window rows scanned, both even (OpenCV's grid starts at row 0).
         step_x : int
@@ -111,27 +99,83 @@ class PackedCascade:
             raise ValueError(f"step_x must be 2 or 4, got {step_x}")
         if y_lo % 2 or y_last % 2:
             raise ValueError(f"rows must be even, got {y_lo}..{y_last}")
-        rows, W1 = ii.shape
+        if img.ndim != 2 or img.dtype != np.uint8:
+            raise ValueError(f"a 2-D uint8 level image is needed, got {img.dtype} {img.shape}")
+        h, w = img.shape
         ww, wh = self.width_px, self.height_px
-        if W1 - 1 < ww or y_last < y_lo or y_last + wh > rows - 1:
+        if w < ww or y_last < y_lo or y_lo < 0 or y_last + wh > h:
             return np.zeros((0, 2), np.int64)
-        d_ii, cols = deinterleave(ii, step_x)
-        d_sq, _ = deinterleave(sq, step_x)
-        L = (W1 - 1 - ww) // step_x + 1
+        rows, W1 = h + 1, w + 1
+        cols = (W1 + step_x - 1) // step_x
+        key = (rows, W1, step_x)
+        tabs = self._offsets.get(key)
+        if tabs is None:
+            def dcorner(dy, dx):
+                dx = np.asarray(dx, np.int64)
+                return (dx % step_x) * rows * cols + np.asarray(dy, np.int64) * cols + dx // step_x
 
-        def dcorner(dy, dx):
-            dx = np.asarray(dx, np.int64)
-            return (dx % step_x) * rows * cols + np.asarray(dy, np.int64) * cols + dx // step_x
-
-        var_off = np.array([dcorner(1, 1), dcorner(1, ww - 1), dcorner(wh - 1, 1), dcorner(wh - 1, ww - 1)],
-                           np.int64)
-        off_d = self._corner_offsets(("d", rows, cols, step_x), dcorner)
-        off_i = self._corner_offsets(("i", W1), lambda dy, dx: np.asarray(dy, np.int64) * W1 + dx)
+            x, y, rw, rh = (self.rects[..., i] for i in range(4))
+            off_d = np.stack([dcorner(y, x), dcorner(y, x + rw), dcorner(y + rh, x), dcorner(y + rh, x + rw)], -1)
+            off_i = np.stack([y * W1 + x, y * W1 + x + rw, (y + rh) * W1 + x, (y + rh) * W1 + x + rw], -1)
+            var_off = np.array([dcorner(1, 1), dcorner(1, ww - 1), dcorner(wh - 1, 1), dcorner(wh - 1, ww - 1)],
+                               np.int64)
+            tabs = (np.ascontiguousarray(off_d.reshape(-1, 12), np.int64),
+                    np.ascontiguousarray(off_i.reshape(-1, 12), np.uint64), var_off)
+            if len(self._offsets) > 256:
+                self._offsets.clear()
+            self._offsets[key] = tabs
+        off_d, off_i, var_off = tabs
+        I, D, Q = _integrals(img, step_x, cols)
+        L = (w - ww) // step_x + 1
         out = np.empty((((y_last - y_lo) // 2 + 1) * L, 2), np.int64)
-        n = _scan_level(d_ii, d_sq, cols, L, step_x, ww, wh, y_lo, y_last, self.n_dense, var_off, self.start,
-                        self.thr, self.nrect, off_d, self.wts, self.split, self.left, self.right,
-                        ii.ravel(), W1, off_i.astype(np.uint64), out)
+        n = _scan_level(D, Q, cols, L, step_x, ww, wh, y_lo, y_last, self.n_dense, var_off, self.start,
+                        self.thr, self.nrect, off_d, self.wts, self.split, self.left, self.right, I, W1, off_i, out)
         return out[:n]
+
+
+@njit(cache=True, boundscheck=False, nogil=True)
+def _integrals(img, k, cols):
+    """The integral image of ``img`` (int32, flat, ``w + 1`` per row) and copies of it and of
+    the squared integral (float64) split by column modulo ``k`` (see :func:`deinterleave`): the
+    values of ``cv2.integral2(img, sdepth=CV_32S, sqdepth=CV_64F)``."""
+    h, w = img.shape
+    W1 = w + 1
+    plane = (h + 1) * cols
+    I = np.empty((h + 1) * W1, np.int32)
+    D = np.empty(k * plane + PAD, np.int32)
+    Q = np.empty(k * plane + PAD, np.float64)
+    for x in range(W1):
+        I[x] = 0
+    for y in range(h):
+        s = 0
+        b0 = y * W1
+        b1 = b0 + W1
+        I[b1] = 0
+        for x in range(w):
+            v = np.int64(img[y, x])
+            s += v
+            I[b1 + x + 1] = I[b0 + x + 1] + np.int32(s)
+    for y in range(h + 1):
+        for c in range(k * cols):
+            x = min(c, w)  # the columns past the last repeat it
+            D[(c % k) * plane + y * cols + c // k] = I[y * W1 + x]
+    # the squared integral, accumulated exactly (integers) and stored as float64
+    for c in range(k * cols):
+        Q[(c % k) * plane + c // k] = 0.0
+    acc = np.zeros(W1, np.int64)
+    for y in range(h):
+        run = 0
+        for x in range(w):
+            v = np.int64(img[y, x])
+            run += v * v
+            acc[x + 1] += run
+        for c in range(k * cols):
+            x = min(c, w)
+            Q[(c % k) * plane + (y + 1) * cols + c // k] = float(acc[x])
+    for i in range(k * plane, k * plane + PAD):
+        D[i] = 0
+        Q[i] = 0.0
+    return I, D, Q
 
 
 def deinterleave(a: np.ndarray, k: int) -> tuple[np.ndarray, int]:
