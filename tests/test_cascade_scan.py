@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from seawatch.detect.cascade import CascadeDetector, default_model_path
-from seawatch.detect.cascade_scan import PackedCascade, _integrals, deinterleave
+from seawatch.detect.cascade_scan import PackedCascade, deinterleave
 from seawatch.train.model import read_cascade_xml, write_cascade_xml
 from seawatch.types import Frame
 
@@ -105,17 +105,6 @@ def test_rows_from_a_first_row(tmp_path):
     full = set(map(tuple, pc.scan(img, 0, y_last).tolist()))
     part = set(map(tuple, pc.scan(img, 40, y_last - 10).tolist()))
     assert part == {p for p in full if 40 <= p[1] <= y_last - 10} and part
-
-
-@pytest.mark.parametrize("k", [2, 4])
-def test_integrals_equal_opencvs(k):
-    img = _scene(7, h=71, w=63)
-    ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
-    I, D, Q = _integrals(img, k, (ii.shape[1] + k - 1) // k)
-    assert np.array_equal(I.reshape(ii.shape), ii)
-    d, cols = deinterleave(ii, k)
-    q, _ = deinterleave(sq, k)
-    assert np.array_equal(D, d) and np.array_equal(Q, q)
 
 
 def test_deinterleave():

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 from numba import njit
 
@@ -125,57 +126,15 @@ class PackedCascade:
                 self._offsets.clear()
             self._offsets[key] = tabs
         off_d, off_i, var_off = tabs
-        I, D, Q = _integrals(img, step_x, cols)
+        ii, sq = cv2.integral2(img, sdepth=cv2.CV_32S, sqdepth=cv2.CV_64F)
+        D, _ = deinterleave(ii, step_x)
+        Q, _ = deinterleave(sq, step_x)
+        I = ii.ravel()
         L = (w - ww) // step_x + 1
         out = np.empty((((y_last - y_lo) // 2 + 1) * L, 2), np.int64)
         n = _scan_level(D, Q, cols, L, step_x, ww, wh, y_lo, y_last, self.n_dense, var_off, self.start,
                         self.thr, self.nrect, off_d, self.wts, self.split, self.left, self.right, I, W1, off_i, out)
         return out[:n]
-
-
-@njit(cache=True, boundscheck=False, nogil=True)
-def _integrals(img, k, cols):
-    """The integral image of ``img`` (int32, flat, ``w + 1`` per row) and copies of it and of
-    the squared integral (float64) split by column modulo ``k`` (see :func:`deinterleave`): the
-    values of ``cv2.integral2(img, sdepth=CV_32S, sqdepth=CV_64F)``."""
-    h, w = img.shape
-    W1 = w + 1
-    plane = (h + 1) * cols
-    I = np.empty((h + 1) * W1, np.int32)
-    D = np.empty(k * plane + PAD, np.int32)
-    Q = np.empty(k * plane + PAD, np.float64)
-    for x in range(W1):
-        I[x] = 0
-    for y in range(h):
-        s = 0
-        b0 = y * W1
-        b1 = b0 + W1
-        I[b1] = 0
-        for x in range(w):
-            v = np.int64(img[y, x])
-            s += v
-            I[b1 + x + 1] = I[b0 + x + 1] + np.int32(s)
-    for y in range(h + 1):
-        for c in range(k * cols):
-            x = min(c, w)  # the columns past the last repeat it
-            D[(c % k) * plane + y * cols + c // k] = I[y * W1 + x]
-    # the squared integral, accumulated exactly (integers) and stored as float64
-    for c in range(k * cols):
-        Q[(c % k) * plane + c // k] = 0.0
-    acc = np.zeros(W1, np.int64)
-    for y in range(h):
-        run = 0
-        for x in range(w):
-            v = np.int64(img[y, x])
-            run += v * v
-            acc[x + 1] += run
-        for c in range(k * cols):
-            x = min(c, w)
-            Q[(c % k) * plane + (y + 1) * cols + c // k] = float(acc[x])
-    for i in range(k * plane, k * plane + PAD):
-        D[i] = 0
-        Q[i] = 0.0
-    return I, D, Q
 
 
 def deinterleave(a: np.ndarray, k: int) -> tuple[np.ndarray, int]:
@@ -184,7 +143,8 @@ def deinterleave(a: np.ndarray, k: int) -> tuple[np.ndarray, int]:
     the row's last value), followed by ``PAD`` zeros; and ``cols``."""
     rows, n = a.shape
     cols = (n + k - 1) // k
-    flat = np.zeros(k * rows * cols + PAD, a.dtype)
+    flat = np.empty(k * rows * cols + PAD, a.dtype)
+    flat[k * rows * cols:] = 0
     parts = flat[: k * rows * cols].reshape(k, rows, cols)
     for r in range(k):
         m = len(range(r, n, k))
