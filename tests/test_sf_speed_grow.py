@@ -62,7 +62,7 @@ def _reference_grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contr
         return None, contrast, False
     if waterline_frac > 0 or wake_frac > 0:
         core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
-        nx0, ny0, nx1, ny1 = F._trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
+        nx0, ny0, nx1, ny1 = _reference_trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                             waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
@@ -86,6 +86,62 @@ def _reference_extend_top(dev, ext, thr, left_edge, right_edge):
         return y0
     rows = np.flatnonzero(np.isin(lab[:y0, x0:x1], hit).any(axis=1))
     return int(rows[0]) if len(rows) else y0
+
+
+def _reference_trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0,
+                           core_undo=False):
+    """``_trim_object`` as it was before session 18 (np.median, np.percentile, np.where)."""
+    x0, y0, x1, y1 = (int(v) for v in ext)
+    check = core is not None and core_frac > 0
+    if waterline_frac > 0 and y1 - y0 >= 3:
+        rows = np.median(dev[y0:y1, x0:x1], axis=1)
+        strong = np.flatnonzero(rows >= waterline_frac * rows.max())
+        yc = y0 + int(strong[-1]) + 1
+        if check:
+            ch = max(core[3] - core[1], 1.0)
+            if min(core[3], y1) - yc > core_frac * ch:
+                yc = y1 if core_undo else max(yc, min(y1, int(np.ceil(core[3] - core_frac * ch))))
+        y1 = yc
+    if wake_frac > 0 and trail != 0 and x1 - x0 >= 3:
+        m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
+        ext = np.where(m.any(axis=0), (y1 - y0) - np.argmax(m, axis=0), 0)
+        ref = np.percentile(ext[ext > 0], 75) if (ext > 0).any() else 0.0
+        tall = np.flatnonzero(ext >= wake_frac * ref)
+        if len(tall):
+            run = max(3, 0.25 * (x1 - x0))
+            a, b = int(tall[0]), (x1 - x0) - int(tall[-1]) - 1
+            nx0, nx1 = x0 + (a if a >= run and trail < 0 else 0), x1 - (b if b >= run and trail > 0 else 0)
+            if check:
+                cw = max(core[2] - core[0], 1.0)
+                if nx0 - max(core[0], x0) > core_frac * cw:
+                    nx0 = x0 if core_undo else min(nx0, max(x0, int(np.floor(core[0] + core_frac * cw))))
+                if min(core[2], x1) - nx1 > core_frac * cw:
+                    nx1 = x1 if core_undo else max(nx1, min(x1, int(np.ceil(core[2] - core_frac * cw))))
+            x0, x1 = nx0, nx1
+    return x0, y0, x1, y1
+
+
+def test_trim_object_kernels_equal_the_reference():
+    rng = np.random.default_rng(7)
+    n_cut = 0
+    for it in range(1500):
+        rows, cols = int(rng.integers(3, 50)), int(rng.integers(3, 90))
+        dev = (rng.integers(0, 511, (rows, cols)) / 2.0).astype(np.float32)
+        if rng.random() < 0.5:  # a hull over a fainter reflection
+            dev[: rows // 2] += np.float32(rng.integers(0, 100))
+        mask = rng.random((rows, cols)) < rng.uniform(0.1, 0.9)
+        if rng.random() < 0.5:  # a low wake at one end
+            mask[: rows - 2, : cols // 3] = False
+        x0, y0 = int(rng.integers(0, cols - 2)), int(rng.integers(0, rows - 2))
+        x1, y1 = int(rng.integers(x0 + 1, cols + 1)), int(rng.integers(y0 + 1, rows + 1))
+        core = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)), float(rng.uniform(x0, x1 + 3)),
+                float(rng.uniform(y0, y1 + 3))) if rng.random() < 0.5 else None
+        args = (dev, mask, (x0, y0, x1, y1), float(rng.choice([0.0, 0.5, 0.37])), float(rng.choice([0.0, 0.3, 0.71])),
+                int(rng.choice([-1, 0, 1])), core, float(rng.choice([0.0, 0.3])), bool(rng.random() < 0.5))
+        got, ref = F._trim_object(*args), _reference_trim_object(*args)
+        assert [int(v) for v in got] == [int(v) for v in ref]
+        n_cut += got != (x0, y0, x1, y1)
+    assert n_cut > 100
 
 
 def test_close_label_is_opencvs_closing_and_components():
@@ -193,3 +249,42 @@ def test_grow_boxes_with_the_defaults_equals_the_reference(nc, monkeypatch):
             ref = F.grow_boxes(img[:, :, 0] if nc == 1 else img, boxes, cores, **kw)
         assert np.array_equal(got[0], ref[0])
         assert np.array_equal(got[1], ref[1], equal_nan=True)
+
+
+def _reference_box_members(k, vel, n, max_dv, anchor=None):
+    """``_box_members`` as it was before session 18 (a numpy loop over the clusters)."""
+    keep = np.ones(len(k), bool)
+    fin = np.isfinite(vel).all(axis=1)
+    for c in range(n):
+        mc = np.flatnonzero(k == c)
+        f = mc[fin[mc]]
+        if len(f) < 3:
+            continue
+        fa = f[anchor[f]] if anchor is not None else f[:0]
+        med = np.median(vel[fa if len(fa) >= 2 else f], axis=0)
+        far = f[np.hypot(*(vel[f] - med).T) > max_dv]
+        if len(mc) - len(far) >= 2:
+            keep[far] = False
+    return keep
+
+
+def test_box_members_kernel_equals_the_reference():
+    rng = np.random.default_rng(6)
+    n_dropped = 0
+    for it in range(800):
+        n = int(rng.integers(1, 12))
+        m = int(rng.integers(0, 80))
+        k = rng.integers(0, n, m)
+        vel = rng.normal(0, rng.choice([0.5, 3.0, 20.0]), (m, 2))
+        if rng.random() < 0.5:  # two velocity groups, quantised (ties in the medians)
+            vel += np.where(rng.random(m) < 0.3, 10.0, 0.0)[:, None]
+            vel = np.round(vel * 2) / 2
+        vel[rng.random(m) < 0.2] = np.nan
+        vel[rng.random(m) < 0.05, 1] = np.nan
+        anchor = (rng.random(m) < rng.uniform(0, 1)) if rng.random() < 0.6 else None
+        dv = float(rng.choice([0.5, 1.5, 3.0]))
+        got = F._box_members(k, vel, n, dv, anchor)
+        ref = _reference_box_members(k, vel, n, dv, anchor)
+        assert np.array_equal(got, ref)
+        n_dropped += int((~ref).sum())
+    assert n_dropped > 100

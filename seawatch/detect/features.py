@@ -779,6 +779,7 @@ class StableFeatureExtractor:
         self._grey_prev: np.ndarray | None = None
         self._scale = 1.0
         self._h_prev = np.eye(3)
+        self._pred_tree = None  # (expected positions, their cKDTree) of the frame being processed
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -830,7 +831,9 @@ class StableFeatureExtractor:
     def _priority(self, xy: np.ndarray, pred: np.ndarray | None, budget: int) -> np.ndarray | None:
         if pred is None or not (len(xy) > budget > 0):
             return None
-        d, _ = cKDTree(pred).query(xy, k=1, distance_upper_bound=self.prior_radius_px)
+        if self._pred_tree is None or self._pred_tree[0] is not pred:  # one tree a frame (main and band pass)
+            self._pred_tree = (pred, cKDTree(pred))
+        d, _ = self._pred_tree[1].query(xy, k=1, distance_upper_bound=self.prior_radius_px)
         return np.isfinite(d)
 
     def _describe_main(self, grey: np.ndarray, kps, pred):

@@ -1032,6 +1032,58 @@ def _extend_top(dev, ext, thr, left_edge, right_edge):
     return int(_top_row(dev, np.float32(thr), x0, y0, x1, y1, bool(left_edge), bool(right_edge)))
 
 
+@nb.njit(cache=True, nogil=True)
+def _last_strong_row(dev, y0, y1, x0, x1, frac):
+    """The last row ``r - y0`` of ``dev[y0:y1, x0:x1]`` (float32) whose median reaches ``frac``
+    (float32) times the largest row median, as ``np.median(axis=1)`` and numpy's float32 product
+    give them (the median of an even count is the mean of the two middle values in float32)."""
+    med = np.empty(y1 - y0, np.float32)
+    for r in range(y0, y1):
+        med[r - y0] = _median_sorted(np.sort(dev[r, x0:x1]))
+    thr = frac * med.max()
+    last = -1
+    for i in range(len(med)):
+        if med[i] >= thr:
+            last = i
+    return last
+
+
+@nb.njit(cache=True, nogil=True)
+def _tall_columns(m, frac):
+    """For the object's mask ``m`` (rows, cols): each column's height (from its top pixel to the
+    bottom, 0 without one), and the first and last column whose height is at least ``frac``
+    times the 75th percentile of the positive heights (``np.percentile``'s float64 value; 0 when
+    none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`."""
+    rows, cols = m.shape
+    ext = np.zeros(cols, np.int64)
+    for c in range(cols):
+        for r in range(rows):
+            if m[r, c]:
+                ext[c] = rows - r
+                break
+    pos = np.sort(ext[ext > 0])
+    ref = 0.0
+    n = len(pos)
+    if n:
+        vi = (n - 1) * 0.75
+        if vi >= n - 1:
+            ref = float(pos[n - 1])
+        else:
+            lo = int(np.floor(vi))
+            g = vi - np.floor(vi)
+            a, b = pos[lo], pos[lo + 1]
+            d = b - a
+            ref = b - d * (1.0 - g) if g >= 0.5 else a + d * g
+    thr = frac * ref
+    first, last = -1, -1
+    for c in range(cols):
+        if ext[c] >= thr:
+            if first < 0:
+                first = c
+            last = c
+    return first, last
+
+
 def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
@@ -1043,9 +1095,12 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
     x0, y0, x1, y1 = (int(v) for v in ext)
     check = core is not None and core_frac > 0
     if waterline_frac > 0 and y1 - y0 >= 3:
-        rows = np.median(dev[y0:y1, x0:x1], axis=1)
-        strong = np.flatnonzero(rows >= waterline_frac * rows.max())
-        yc = y0 + int(strong[-1]) + 1
+        if x1 > x0 and dev.dtype == np.float32:  # the rows' medians in Numba (the same values)
+            yc = y0 + int(_last_strong_row(dev, y0, y1, x0, x1, np.float32(waterline_frac))) + 1
+        else:
+            rows = np.median(dev[y0:y1, x0:x1], axis=1)
+            strong = np.flatnonzero(rows >= waterline_frac * rows.max())
+            yc = y0 + int(strong[-1]) + 1
         if check:
             ch = max(core[3] - core[1], 1.0)
             if min(core[3], y1) - yc > core_frac * ch:  # the cut leaves out too much of the core
@@ -1053,14 +1108,13 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
         y1 = yc
     if wake_frac > 0 and trail != 0 and x1 - x0 >= 3:
         m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
-        # each column's height: from its top foreground pixel down to the object's bottom
-        ext = np.where(m.any(axis=0), (y1 - y0) - np.argmax(m, axis=0), 0)
-        ref = np.percentile(ext[ext > 0], 75) if (ext > 0).any() else 0.0
-        tall = np.flatnonzero(ext >= wake_frac * ref)
-        if len(tall):
+        # each column's height: from its top foreground pixel down to the object's bottom; the
+        # first and last column at least wake_frac times their 75th percentile tall (-1: none)
+        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac))
+        if t0 >= 0:
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
             run = max(3, 0.25 * (x1 - x0))
-            a, b = int(tall[0]), (x1 - x0) - int(tall[-1]) - 1
+            a, b = int(t0), (x1 - x0) - int(t1) - 1
             nx0, nx1 = x0 + (a if a >= run and trail < 0 else 0), x1 - (b if b >= run and trail > 0 else 0)
             if check:
                 cw = max(core[2] - core[0], 1.0)
@@ -1196,18 +1250,57 @@ def _box_members(k, vel, n, max_dv, anchor=None):
     ``anchor`` (bool per member, optional; stop 16): the members inside the cluster's last box;
     where at least two of them have a known velocity, the median is theirs (the box stays on the
     object it was on when the cluster holds features of two objects)."""
-    keep = np.ones(len(k), bool)
-    fin = np.isfinite(vel).all(axis=1)
+    k = np.ascontiguousarray(k, np.int64)
+    vel = np.ascontiguousarray(vel, np.float64).reshape(-1, 2)
+    anc = np.zeros(len(k), np.bool_) if anchor is None else np.ascontiguousarray(anchor, np.bool_)
+    return _box_members_nb(k, vel, int(n), float(max_dv), anc)
+
+
+@nb.njit(cache=True, nogil=True)
+def _box_members_nb(k, vel, n, max_dv, anchor):
+    """:func:`_box_members` in one pass (the medians as ``np.median``'s, the distances by
+    ``np.hypot``, libm's as numpy's); ``anchor`` all False for none."""
+    m = len(k)
+    keep = np.ones(m, np.bool_)
+    # the members of each cluster, in index order (a counting sort)
+    cnt = np.zeros(n + 1, np.int64)
+    for i in range(m):
+        cnt[k[i] + 1] += 1
     for c in range(n):
-        mc = np.flatnonzero(k == c)
-        f = mc[fin[mc]]
-        if len(f) < 3:
+        cnt[c + 1] += cnt[c]
+    order = np.empty(m, np.int64)
+    pos = cnt[:n].copy()
+    for i in range(m):
+        order[pos[k[i]]] = i
+        pos[k[i]] += 1
+    f = np.empty(m, np.int64)
+    fa = np.empty(m, np.int64)
+    for c in range(n):
+        mc = order[cnt[c]:cnt[c + 1]]
+        nf = 0
+        na = 0
+        for i in mc:
+            if np.isfinite(vel[i, 0]) and np.isfinite(vel[i, 1]):
+                f[nf] = i
+                nf += 1
+                if anchor[i]:
+                    fa[na] = i
+                    na += 1
+        if nf < 3:
             continue
-        fa = f[anchor[f]] if anchor is not None else f[:0]
-        med = np.median(vel[fa if len(fa) >= 2 else f], axis=0)
-        far = f[np.hypot(*(vel[f] - med).T) > max_dv]
-        if len(mc) - len(far) >= 2:
-            keep[far] = False
+        sel = fa[:na] if na >= 2 else f[:nf]
+        mx = _median_of(vel[sel, 0])
+        my = _median_of(vel[sel, 1])
+        nfar = 0
+        for j in range(nf):
+            i = f[j]
+            if np.hypot(vel[i, 0] - mx, vel[i, 1] - my) > max_dv:
+                nfar += 1
+        if len(mc) - nfar >= 2:
+            for j in range(nf):
+                i = f[j]
+                if np.hypot(vel[i, 0] - mx, vel[i, 1] - my) > max_dv:
+                    keep[i] = False
     return keep
 
 
@@ -1898,11 +1991,18 @@ class FeatureClusterer:
         self._cluster_boxes_now = self._last_fi
         self._last_fi = fi
         r = p.box_pad * 0.5 * snap.size_px[m]
+        fv_m = []  # each member's velocity relative to the scene (the mean of its history), computed once
+
+        def member_velocity():
+            if not fv_m:
+                with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    fv_m.append(np.nanmean(snap.history[m], axis=1))
+            return fv_m[0]
+
         if p.box_dv_px_s > 0:
             # the box is drawn around the members that move with the cluster
-            with np.errstate(invalid="ignore"), warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                fv = np.nanmean(snap.history[m], axis=1)
+            fv = member_velocity()
             dv = p.box_dv_px_s
             if p.box_dv_noise_k > 0 and np.isfinite(self.noise_px_s):
                 dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
@@ -1941,10 +2041,8 @@ class FeatureClusterer:
             if p.wake_frac > 0:
                 # a wake trails behind a boat moving across the image (relative to the scene):
                 # the box members' mean velocity
-                with np.errstate(invalid="ignore"), warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    fvb = np.nanmean(snap.history[m], axis=1)
-                    fvb = fvb[inb] if p.box_dv_px_s > 0 else fvb
+                fvb = member_velocity()
+                fvb = fvb[inb] if p.box_dv_px_s > 0 else fvb
                 okv = np.isfinite(fvb).all(axis=1)
                 vx = np.zeros(n)
                 np.add.at(vx, kb[okv], fvb[okv, 0])
@@ -1990,9 +2088,7 @@ class FeatureClusterer:
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
             if p.merge_gap_h > 0 or p.merge_keep > 0:
-                with np.errstate(invalid="ignore"), warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    fv = np.nanmean(snap.history[m], axis=1)  # each member's velocity relative to the scene
+                fv = member_velocity()  # each member's velocity relative to the scene
                 okv = np.isfinite(fv).all(axis=1)
                 rs = np.zeros((n, 2))
                 np.add.at(rs, k[okv], fv[okv])
