@@ -43,7 +43,8 @@ TARGET = {0.3: 0.75, 0.5: 0.55}
 # speed), each with the detector settings stored in its JSON; one equal to the default in both
 # the XML bytes and the JSON's ``detector`` block is skipped (the default's rows name it)
 ALTERNATIVES = {"v5": "boat_cascade_v5.xml", "v6": "boat_cascade_v6.xml", "v6fast": "boat_cascade_v6fast.xml",
-                "v6s15": "boat_cascade_v6s15.xml", "v7": "boat_cascade_v7.xml", "v2": "boat_cascade_v2.xml"}
+                "v6s15": "boat_cascade_v6s15.xml", "v7": "boat_cascade_v7.xml", "v2": "boat_cascade_v2.xml",
+                "v6g4": "boat_cascade_v6g4.xml"}
 # the floor of a cascade scan at 704x576 (pyramid, integrals, variance checks; a cascade that
 # rejects every window at its first stump) for these windows and scale factors
 FLOOR_WINDOWS = ((60, 30), (40, 20), (30, 15))
@@ -271,10 +272,24 @@ def run(ctx) -> None:
 
     # speed, one core (cv2.setNumThreads(1)): CPU time per frame, which a machine shared with
     # other jobs does not inflate as much as wall time (both are recorded)
-    from seawatch.types import Frame
-
     sample = [f for _, f in frames[:: max(1, len(frames) // 20)]][:20]
     reps = 1 if quick else 3
+    from seawatch.types import Frame
+
+    # the Numba scanner against OpenCV's on the 2 px grid (session 18): the same detections on every
+    # video2 frame, played in order, for the default and each alternative on that grid
+    for tag, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items():
+        if CascadeDetector(mp).params.grid_step_px != 2 or CascadeDetector(mp).params.grid_step_x_px == 4:
+            continue
+        pair = [CascadeDetector(mp, scanner=sc) for sc in ("opencv", "numba")]
+        n_diff = 0
+        for k, (_, f) in enumerate(frames):
+            a, b = (d.detect(Frame(f, k / FPS_VIDEO, k)) for d in pair)
+            ra = np.column_stack([a.boxes, a.scores])
+            rb = np.column_stack([b.boxes, b.scores])
+            n_diff += not np.array_equal(ra[np.lexsort(ra.T[::-1])], rb[np.lexsort(rb.T[::-1])])
+        ctx.record(ds, f"seawatch_cascade{tag}", "scanner_frames_differing", n_diff, "frames",
+                   n_frames=len(frames), note="Numba scanner against OpenCV's, same settings (must be 0)")
     for (w, h) in ((704, 576), (1920, 1080)):
         imgs = [cv2.resize(f, (w, h), interpolation=cv2.INTER_LINEAR) for f in sample]
         det = CascadeDetector(model)
@@ -296,6 +311,10 @@ def run(ctx) -> None:
                 **{f"seawatch_cascade{t}+filters(validation_best_sf{sf:g})": CascadeDetector(mp, **kw)
                    for t, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items()
                    for sf, kw in _best_per_scale_factor(mp, list(alts.values()) if mp == model else ()).items()},
+                # the same detectors scanned by OpenCV instead of the Numba scanner (2 px grid): the peer
+                **{f"seawatch_cascade{t}+filters(opencv_scanner)": CascadeDetector(mp, scanner="opencv")
+                   for t, mp in {"": model, **{f"_{t}": a for t, a in alts.items()}}.items()
+                   if CascadeDetector(mp).params.grid_step_px == 2 and CascadeDetector(mp).params.grid_step_x_px != 4},
                 "barche_x1": peer}
         for name, d in dets.items():
             d.detect(Frame(imgs[0], 0.0, 0))  # warm-up
@@ -319,6 +338,9 @@ def run(ctx) -> None:
                        settings=None if name == "barche_x1" else _settings(d))
         ctx.record(f"{w}x{h} one core", "seawatch_vs_barche", "speed_ratio",
                    cpu["barche_x1"] / cpu["seawatch_cascade+filters"], "x", clock="cpu")
+        for name in [n for n in cpu if n.endswith("(opencv_scanner)")]:
+            ctx.record(f"{w}x{h} one core", name.replace("+filters(opencv_scanner)", "_numba_vs_opencv_scanner"),
+                       "speed_ratio", cpu[name] / cpu[name.replace("(opencv_scanner)", "")], "x", clock="cpu")
         for tag, alt in alts.items():
             ctx.record(f"{w}x{h} one core", f"seawatch_{tag}_vs_seawatch_default", "speed_ratio",
                        cpu["seawatch_cascade+filters"] / cpu[f"seawatch_cascade_{tag}+filters"], "x", clock="cpu")
@@ -416,7 +438,9 @@ def _settings(det) -> str:
     p = det.params
     return (f"window {det.window[0]}x{det.window[1]}, scale factor {p.scale_factor:g}, "
             f"min_neighbors {p.min_neighbors}, size exponent {p.neighbors_size_exp:g}"
-            + (", 2 px grid at every scale" if p.grid_step_px == 2 else ""))
+            + ((", 4x2 px grid at every scale" if p.grid_step_x_px == 4 else ", 2 px grid at every scale")
+               if p.grid_step_px == 2 else "")
+            + (f", {p.scanner} scanner" if p.scanner != "auto" else ""))
 
 
 def _floor(ctx, imgs, dataset, reps):
