@@ -703,25 +703,26 @@ def _close_label(fg):
     8-connected components of ``fg`` closed by a 3x3 square (``cv2.morphologyEx(MORPH_CLOSE)``
     with its default border: pixels outside the image neither dilate nor erode), and their count."""
     rows, cols = fg.shape
+    # the 3x3 square is a 1x3 by a 3x1 segment: dilation and erosion along the rows, then the
+    # columns (pixels outside the image are False for the dilation, True for the erosion)
+    tmp = np.zeros((rows, cols), np.bool_)
+    for r in range(rows):
+        for c in range(cols):
+            tmp[r, c] = fg[r, c] or (c > 0 and fg[r, c - 1]) or (c + 1 < cols and fg[r, c + 1])
     dil = np.zeros((rows, cols), np.bool_)
     for r in range(rows):
         for c in range(cols):
-            if fg[r, c]:
-                for rr in range(max(r - 1, 0), min(r + 2, rows)):
-                    for cc in range(max(c - 1, 0), min(c + 2, cols)):
-                        dil[rr, cc] = True
+            dil[r, c] = tmp[r, c] or (r > 0 and tmp[r - 1, c]) or (r + 1 < rows and tmp[r + 1, c])
+    for r in range(rows):
+        for c in range(cols):
+            tmp[r, c] = dil[r, c] and (c == 0 or dil[r, c - 1]) and (c + 1 == cols or dil[r, c + 1])
     par = np.empty(rows * cols + 1, np.int64)
     lab = np.zeros((rows, cols), np.int32)
     nxt = 1
     for r in range(rows):
         for c in range(cols):
-            # eroded: every dilated pixel of the 3x3 neighbourhood inside the image is set
-            on = True
-            for rr in range(max(r - 1, 0), min(r + 2, rows)):
-                for cc in range(max(c - 1, 0), min(c + 2, cols)):
-                    if not dil[rr, cc]:
-                        on = False
-            if not on:
+            # closed: the row-eroded pixel and its upper and lower neighbours inside the image are set
+            if not (tmp[r, c] and (r == 0 or tmp[r - 1, c]) and (r + 1 == rows or tmp[r + 1, c])):
                 continue
             cur = 0
             # the neighbours already visited: left, and the three above
