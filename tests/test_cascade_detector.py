@@ -135,15 +135,18 @@ def test_shipped_model_loads():
     if not path.is_file():
         pytest.skip("no shipped model yet")
     det = CascadeDetector()
-    # session 15: v6's 30x15 cascade at the settings of the played-speed rule (1.3 / 6 / 0, 2 px grid)
+    # session 18: v6's 30x15 cascade on a 4x2 px grid at the settings of session 18's rule (1.2 / 2 / 0.5)
     assert det.window == (30, 15)
     p = det.params
-    assert (p.scale_factor, p.min_neighbors, p.neighbors_size_exp, p.grid_step_px) == (1.3, 6, 0.0, 2)
+    assert (p.scale_factor, p.min_neighbors, p.neighbors_size_exp, p.grid_step_px, p.grid_step_x_px) == (1.2, 2, 0.5, 2, 4)
     assert 0.3 < det.ratio_w <= 1.0 and 0.3 < det.ratio_h <= 1.2
     img, _, _ = _scene(630)
     d = det.detect(Frame(img, 0.0, 0))
     assert d.boxes.shape[1] == 4
-    # the previous default, v2, is kept beside it with its own settings
+    # the previous default, v6s15, is kept beside it with its own settings (2 px grid, 1.3 / 6 / 0)
+    s15 = CascadeDetector(path.parent / "boat_cascade_v6s15.xml")
+    assert (s15.params.scale_factor, s15.params.min_neighbors, s15.params.grid_step_x_px) == (1.3, 6, 0)
+    # an older default, v2, is kept beside it with its own settings
     v2 = CascadeDetector(path.parent / "boat_cascade_v2.xml")
     assert v2.window == (60, 30)
     assert (v2.params.scale_factor, v2.params.min_neighbors, v2.params.grid_step_px) == (1.1, 48, 0)

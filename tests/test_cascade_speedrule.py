@@ -119,12 +119,29 @@ MODELS = V6.parent
 
 def test_speed_rule_json_rebuilds_the_shipped_default_byte_for_byte(tmp_path):
     # v6s15's JSON was assembled by hand in session 15: the writer, given v6's JSON and the
-    # rule's record as stored, gives the same bytes (and so the default's, its byte copy)
+    # rule's record as stored, gives the same bytes (the default's until session 18)
     shipped = json.loads((MODELS / "boat_cascade_v6s15.json").read_text())
     rule = {k: v for k, v in shipped["speed_selection"].items() if k not in ("command", "note")}
     out = write_speed_rule_json(tmp_path / "boat_cascade_v6s15.json", V6, rule, shipped["speed_selection"]["command"])
     assert out.read_bytes() == (MODELS / "boat_cascade_v6s15.json").read_bytes()
+
+
+def test_speed_rule_json_rebuilds_v6g4_the_shipped_default_byte_for_byte(tmp_path):
+    # session 18's rule ran on a copy of v6 whose JSON's detector block says grid_step_x_px 4;
+    # the writer, given that and the rule's record as stored, gives v6g4's JSON (the default's)
+    shipped = json.loads((MODELS / "boat_cascade_v6g4.json").read_text())
+    src = json.loads(V6.with_suffix(".json").read_text())
+    src["detector"]["grid_step_x_px"] = 4
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / V6.name).write_bytes(V6.read_bytes())
+    (tmp_path / "src" / V6.with_suffix(".json").name).write_text(json.dumps(src, indent=1))
+    rule = {k: v for k, v in shipped["speed_selection"].items() if k not in ("command", "note")}
+    out = write_speed_rule_json(tmp_path / "boat_cascade_v6g4.json", tmp_path / "src" / V6.name, rule,
+                                shipped["speed_selection"]["command"])
+    assert out.read_bytes() == (MODELS / "boat_cascade_v6g4.json").read_bytes()
     assert out.read_bytes() == (MODELS / "boat_cascade.json").read_bytes()
+    assert shipped["detector"] == {"min_neighbors": 2, "scale_factor": 1.2, "neighbors_size_exp": 0.5,
+                                   "grid_step_px": 2, "grid_step_x_px": 4}
 
 
 def test_speed_rule_json_from_a_synthetic_rule_run(tmp_path):
