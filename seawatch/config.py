@@ -60,6 +60,9 @@ class DetectorSettings:
     water_roi: bool = True  # with the horizon filter, scan only below the horizon line
     # cascade: each pyramid level scans only the rows that can give an accepted detection (horizon)
     cascade_scan_region: bool = True
+    # cascade: who evaluates the windows on the 2 px grid: auto (seawatch's Numba scanner, the same
+    # decisions as OpenCV's, faster) | numba | opencv
+    cascade_scanner: str = "auto"
     # robust Kalman background model (paper C); see docs/paper_c.md
     rk_k_sigma: float = 8.0  # foreground beyond k sqrt(P_pred + r) (paper: 3)
     rk_window_s: float = 20.0  # memory of the EM statistics (paper: N = 50 frames)
@@ -213,6 +216,7 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
 # (section dataclass, key) -> (dotted name, allowed values)
 _CHOICES: dict[tuple[str, str], tuple[str, tuple[str, ...]]] = {
     ("TrackerSettings", "sf_horizon"): ("tracker.sf_horizon", ("camera", "detect", "auto", "off")),
+    ("DetectorSettings", "cascade_scanner"): ("detector.cascade_scanner", ("auto", "numba", "opencv")),
 }
 
 

@@ -181,3 +181,20 @@ def test_detector_coarse_grid_scans_fewer_windows():
     wf, cf = fine.scan_region_windows(g, None)
     wc, cc = coarse.scan_region_windows(g, None)
     assert 0 < cc.sum() < cf.sum()  # the raw windows grouped: about half as many
+
+
+def test_config_chooses_the_scanner(tmp_path):
+    from seawatch.config import ConfigError, load_config
+
+    cfg = tmp_path / "c.toml"
+    s15 = default_model_path().parent / "boat_cascade_v6s15.xml"  # 2 px grid
+    cfg.write_text(f'[detector]\nkind = "cascade"\ncascade_model = "{s15}"\ncascade_scanner = "opencv"\n')
+    det = CascadeDetector.from_config(load_config(cfg))
+    assert det.params.scanner == "opencv" and not det._use_numba()
+    # the default model's 4x2 grid is the Numba scanner's only: a clear error, not a silent switch
+    cfg.write_text('[detector]\nkind = "cascade"\ncascade_scanner = "opencv"\n')
+    with pytest.raises(ValueError, match="Numba scanner only"):
+        CascadeDetector.from_config(load_config(cfg))
+    cfg.write_text('[detector]\nkind = "cascade"\ncascade_scanner = "openvc"\n')
+    with pytest.raises(ConfigError, match="cascade_scanner"):
+        load_config(cfg)

@@ -194,6 +194,7 @@ class CascadeDetector:
             horizon_tau_s=getattr(d, "horizon_tau_s", 0.5),
             water_roi=getattr(d, "water_roi", True),
             scan_region=getattr(d, "cascade_scan_region", True),
+            scanner=getattr(d, "cascade_scanner", "auto"),
         )
 
     # ------------------------------------------------------------------ geometry
