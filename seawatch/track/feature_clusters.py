@@ -598,10 +598,15 @@ def _window_background(win, bw):
 def _edge_deviation(win, bg, r, k, bw):
     """Largest channel deviation from the row's background of the ``k``-th of the ``2 bw`` edge
     pixels of row ``r`` (the ``bw`` leftmost columns, then the ``bw`` rightmost)."""
-    col = k if k < bw else win.shape[1] - 2 * bw + k
+    return _pixel_deviation(win, bg, r, k if k < bw else win.shape[1] - 2 * bw + k)
+
+
+@nb.njit(cache=True, nogil=True)
+def _pixel_deviation(win, bg, r, q):
+    """Largest channel deviation of pixel ``(r, q)`` from its row's background ``bg[r]``."""
     m = np.float32(0.0)
     for c in range(win.shape[2]):
-        d = abs(np.float32(win[r, col, c]) - bg[r, c])
+        d = abs(np.float32(win[r, q, c]) - bg[r, c])
         if d > m:
             m = d
     return m
@@ -652,16 +657,10 @@ def _window_background_u8(win, bw):
 @nb.njit(cache=True, nogil=True)
 def _window_deviation(win, bg, r0, r1, c0, c1):
     """Largest channel deviation from the row's background, over ``win[r0:r1, c0:c1]``."""
-    nc = win.shape[2]
     out = np.empty((r1 - r0, c1 - c0), np.float32)
     for r in range(r0, r1):
         for q in range(c0, c1):
-            m = np.float32(0.0)
-            for c in range(nc):
-                d = abs(np.float32(win[r, q, c]) - bg[r, c])
-                if d > m:
-                    m = d
-            out[r - r0, q - c0] = m
+            out[r - r0, q - c0] = _pixel_deviation(win, bg, r, q)
     return out
 
 
@@ -673,16 +672,10 @@ def _core_peak_u8(win, bg, r0, r1, c0, c1):
     (the background is a whole or half level), so their order statistics come from a histogram."""
     if r1 <= r0 or c1 <= c0:
         return np.float32(0.0)
-    nc = win.shape[2]
     hist = np.zeros(512, np.int64)
     for r in range(r0, r1):
         for q in range(c0, c1):
-            m = np.float32(0.0)
-            for c in range(nc):
-                d = abs(np.float32(win[r, q, c]) - bg[r, c])
-                if d > m:
-                    m = d
-            hist[int(m * 2.0 + 0.5)] += 1
+            hist[int(_pixel_deviation(win, bg, r, q) * 2.0 + 0.5)] += 1
     n = (r1 - r0) * (c1 - c0)
     vi = (n - 1) * 0.9
     if vi >= n - 1:
