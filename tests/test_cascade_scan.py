@@ -198,3 +198,23 @@ def test_config_chooses_the_scanner(tmp_path):
     cfg.write_text('[detector]\nkind = "cascade"\ncascade_scanner = "openvc"\n')
     with pytest.raises(ConfigError, match="cascade_scanner"):
         load_config(cfg)
+
+
+def test_a_cascade_the_scanner_cannot_read(tmp_path):
+    """Trees deeper than stumps: "auto" lets OpenCV scan it; asking for the Numba scanner (or the
+    4 px grid, which only it scans) is a clear error at construction, not at the first frame."""
+    import re
+
+    xml = V6.read_text()
+    # turn the first stump into a depth-2 tree node list (OpenCV reads it; seawatch's reader refuses)
+    xml2 = re.sub(r"<internalNodes>\s*0 -1 (\d+) ([-0-9.e]+)</internalNodes>",
+                  r"<internalNodes>1 -1 \1 \2 0 -2 \1 \2</internalNodes>", xml, count=1)
+    assert xml2 != xml
+    bad = tmp_path / "deep.xml"
+    bad.write_text(xml2)
+    det = CascadeDetector(bad, grid_step_px=2)
+    assert det.params.scanner == "opencv" and not det._use_numba()
+    with pytest.raises(ValueError, match="Numba scanner cannot read"):
+        CascadeDetector(bad, grid_step_px=2, scanner="numba")
+    with pytest.raises(ValueError, match="Numba scanner cannot read"):
+        CascadeDetector(bad, grid_step_px=2, grid_step_x_px=4)

@@ -167,7 +167,16 @@ class CascadeDetector:
             raise ValueError(f"scanner must be 'auto', 'numba' or 'opencv', got {p.scanner!r}")
         if p.scanner == "opencv" and p.grid_step_x_px == 4:
             raise ValueError("grid_step_x_px 4 is scanned by the Numba scanner only (scanner 'opencv' given)")
-        self.packed = None  # the Numba scanner's cascade, loaded when first needed
+        self.packed = None  # the Numba scanner's cascade (2 px grid, scanner not "opencv")
+        if p.grid_step_px == 2 and p.scanner != "opencv":
+            from seawatch.detect.cascade_scan import PackedCascade
+
+            try:
+                self.packed = PackedCascade(path)
+            except ValueError as exc:  # e.g. trees deeper than stumps, tilted features
+                if p.scanner == "numba" or p.grid_step_x_px == 4:
+                    raise ValueError(f"the Numba scanner cannot read this cascade: {exc}") from None
+                p.scanner = "opencv"  # "auto": OpenCV scans it
         self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p
@@ -290,7 +299,9 @@ class CascadeDetector:
         window scanned gets OpenCV's decision and its box; the raw windows are then grouped as
         ``detectMultiScale`` groups them (``groupRectangles``, eps 0.2).  With ``row_min_det``
         None (and OpenCV's grid, ``grid_step_px`` 0) the result equals ``detectMultiScale2`` on
-        the whole image; with ``grid_step_px`` 2 every level is scanned on the 2 px grid.
+        the whole image; with ``grid_step_px`` 2 every level is scanned on the 2 px grid, by the
+        Numba scanner (:mod:`seawatch.detect.cascade_scan`: the same windows as OpenCV's call)
+        unless ``scanner`` is "opencv", and with ``grid_step_x_px`` 4 on a 4 px grid in x.
         """
         p = self.params
         dh, dw = img.shape
@@ -355,14 +366,7 @@ class CascadeDetector:
 
     def _use_numba(self) -> bool:
         """Whether the 2 px grid's levels are scanned by :mod:`seawatch.detect.cascade_scan`."""
-        p = self.params
-        if p.grid_step_px != 2 or p.scanner == "opencv":
-            return False
-        if self.packed is None:
-            from seawatch.detect.cascade_scan import PackedCascade
-
-            self.packed = PackedCascade(self.model_path)
-        return True
+        return self.packed is not None and self.params.grid_step_px == 2 and self.params.scanner != "opencv"
 
     def region_rows(self, horizon: Horizon, z: float, dw: int, dh: int) -> np.ndarray:
         """First window top row (detection pixels) per pyramid level that can still give an
