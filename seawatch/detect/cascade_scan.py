@@ -36,7 +36,7 @@ from numba import njit
 __all__ = ["PackedCascade", "deinterleave"]
 
 THRESHOLD_EPS = np.float32(1e-5)  # OpenCV subtracts it from every stage threshold it reads
-PAD = 8  # elements after the copies, so that whole rows may be read past their end
+PAD = 8  # spare elements after the split copies (no read goes past a row's last position)
 
 
 class PackedCascade:
@@ -47,8 +47,8 @@ class PackedCascade:
     path : str or Path
         A current-format OpenCV HAAR cascade of stumps (as :mod:`seawatch.train` writes them).
     n_dense : int
-        How many first stages run densely over every position of a row (default 2; the
-        fastest on MarDCT training frames, see docs/cascade.md).
+        How many first stages run densely over every position of a row (default 2; 1 and 2
+        were equally fast within the noise on MarDCT training frames, 3 slower; docs/cascade.md).
 
     Raises
     ------
