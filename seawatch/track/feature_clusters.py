@@ -25,10 +25,12 @@ tracking in visible and thermal imagery", AVSS 2015.  The stable features of
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import warnings
 from dataclasses import dataclass
 
+import cv2
 import numba as nb
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -1365,6 +1367,56 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     return cids[alive], boxes[alive], count[alive], vel[alive]
 
 
+APPEARANCE_SIZE = (16, 8)  # the appearance template's width and height (pixels)
+
+
+def appearance_signature(image: np.ndarray, box) -> tuple[np.ndarray, np.ndarray] | None:
+    """An object's look in ``box`` (``x, y, w, h``) of ``image`` ((H, W) or (H, W, C)), for the
+    relink's appearance check, against its surroundings: the background is the median, per
+    channel, of a ring around the box (half the box's larger side wide, at least 2 pixels; the
+    image's border cuts it); the box's deviation from it gives ``(template, contrast)``: the
+    object's contrast, per channel, the mean deviation of the box's 30 % most deviating pixels
+    (the object rather than the water around it: it does not depend on how tight the box is), and
+    the deviation's grey levels resampled to a 16x8 template (pixel areas averaged: a zoom
+    changes nothing), scaled to unit norm (its sign kept).  None when the box holds less than 2x2
+    pixels of the image."""
+    h, w = image.shape[:2]
+    x0, y0 = max(int(np.floor(box[0])), 0), max(int(np.floor(box[1])), 0)
+    x1, y1 = min(int(np.ceil(box[0] + box[2])), w), min(int(np.ceil(box[1] + box[3])), h)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return None
+    m = max(2, int(0.5 * max(x1 - x0, y1 - y0)))
+    bx0, by0, bx1, by1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+    big = np.asarray(image[by0:by1, bx0:bx1], np.float32)
+    if big.ndim == 2:
+        big = big[:, :, None]
+    ring = np.ones(big.shape[:2], bool)
+    ring[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0] = False
+    bg = np.median(big[ring] if ring.any() else big.reshape(-1, big.shape[2]), axis=0)
+    dev = big[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0] - bg
+    g = np.abs(dev).mean(axis=2)
+    contrast = dev[g >= np.percentile(g, 70)].mean(axis=0)
+    tpl = cv2.resize(np.ascontiguousarray(dev.mean(axis=2)), APPEARANCE_SIZE, interpolation=cv2.INTER_AREA).ravel()
+    return tpl / max(float(np.sqrt(np.dot(tpl, tpl))), 1e-3), contrast
+
+
+def appearance_parts(a, b) -> tuple[float, float]:
+    """The two parts of the appearance distance between signatures ``a`` and ``b``
+    (:func:`appearance_signature`): the contrasts' difference relative to the stronger contrast
+    (Euclidean over the channels; at least 1 grey level; 0 alike, 1 one of them flat, 2
+    inverted), and ``(1 - correlation of the templates) / 2`` (0 alike, 1 inverted)."""
+    ca, cb = a[1], b[1]
+    dc = float(np.sqrt(np.sum((ca - cb) ** 2)) / max(float(np.sqrt(np.sum(ca * ca))), float(np.sqrt(np.sum(cb * cb))), 1.0))
+    return dc, 0.5 * (1.0 - float(np.dot(a[0], b[0])))
+
+
+def appearance_distance(a, b, template_weight: float = 0.0) -> float:
+    """The appearance distance between two signatures (:func:`appearance_signature`): the
+    contrasts' part plus ``template_weight`` times the templates' part (:func:`appearance_parts`)."""
+    dc, dt = appearance_parts(a, b)
+    return dc + template_weight * dt
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
@@ -1430,7 +1482,12 @@ class ClusterParams:
     ``split_memory_s`` (10 s): a split part's identity is kept this long (at least
     ``label_memory_s``) after the split last held; ``split_keep_parts`` (on): of the two groups,
     the one whose features were more often in the split part the frame before is the split
-    part (not the one away from the anchor: two boats that cross keep their identities)."""
+    part (not the one away from the anchor: two boats that cross keep their identities).
+    Session 18: ``relink_appearance`` (off) with ``relink_appearance_max``: a lost identity is not
+    relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box looks unlike the lost
+    box when it was last seen: the appearance distance (:func:`appearance_distance`, a 16x8
+    zero-mean grey template's correlation and the mean colour) above ``relink_appearance_max``
+    refuses the pair."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1487,6 +1544,9 @@ class ClusterParams:
     split_s: float = 1.0
     split_memory_s: float = 10.0
     split_keep_parts: bool = True
+    relink_appearance: bool = False
+    relink_appearance_max: float = 0.8
+    relink_appearance_tpl: float = 0.0
 
 
 class FeatureClusterer:
@@ -1548,6 +1608,12 @@ class FeatureClusterer:
         self._split_since: dict = {}  # cluster identity -> time its two groups were first seen (split_s)
         self._feat_child: dict = {}  # feature identity -> (split part's identity, time) (split_hand_over)
         self._hand_alias: dict = {}  # graph cluster -> the split part's identity it took (split_hand_over)
+        self._app_img = None  # this frame's image (relink_appearance)
+        self._app_prev_img = None  # the frame before's image
+        self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
+        # (time, identity, cluster, its box, template part, level part, refused) of each pair the
+        # appearance check looked at (relink_appearance; the last 1000, for diagnosis)
+        self.relink_log: collections.deque = collections.deque(maxlen=1000)
 
     def reset(self) -> None:
         self.graph.reset()
@@ -1785,6 +1851,7 @@ class FeatureClusterer:
         # new clusters take lost identities, nearest pairs first, within a gate that grows with
         # the time lost (relink_px + relink_px_per_s per second)
         pairs = []
+        sig_new = {}  # new cluster -> its appearance (relink_appearance), computed when needed
         for i in new:
             for k, (tl, lb, _) in self._lost.items():
                 if k in present:
@@ -1796,6 +1863,8 @@ class FeatureClusterer:
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
                 if d <= gate:
+                    if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
+                        continue
                     pairs.append((d, i, k))
         done = set()
         for d, i, k in sorted(pairs):
@@ -1861,6 +1930,9 @@ class FeatureClusterer:
                     continue
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_appearance:  # its look in the last frame it was seen
+                    self._lost_sig[k] = (None if self._app_prev_img is None
+                                         else appearance_signature(self._app_prev_img, b))
                 prev_cam = self._prev_camera
                 if prev_cam is not None:  # the directions of its last box's corners, and their rates
                     az, el = prev_cam.pixel_to_azel(np.array([b[0], b[0] + b[2]]), np.array([b[1], b[1] + b[3]]))
@@ -1881,7 +1953,29 @@ class FeatureClusterer:
         self._prev_boxes = now
         self._prev_vel = own
         self._prev_camera = fcam
+        if p.relink_appearance:
+            self._app_prev_img = self._app_img
+            if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
+                self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _looks_alike(self, k, i, cids, boxes, t, sig_new) -> bool:
+        """``relink_appearance``: whether new cluster ``i`` (its box ``boxes[i]`` in this frame's
+        image) looks like lost identity ``k`` did when last seen: the appearance distance
+        (:func:`appearance_distance`) is at most ``relink_appearance_max``.  True (no check) when
+        either signature is unknown (no image, a box under 2x2 pixels)."""
+        a = self._lost_sig.get(k)
+        if a is None or self._app_img is None:
+            return True
+        if i not in sig_new:
+            sig_new[i] = appearance_signature(self._app_img, boxes[i])
+        b = sig_new[i]
+        if b is None:
+            return True
+        dc, dt = appearance_parts(a, b)
+        refused = dc + self.params.relink_appearance_tpl * dt > self.params.relink_appearance_max
+        self.relink_log.append((t, int(k), int(cids[i]), boxes[i].copy(), dc, dt, refused))
+        return not refused
 
     def _hand_over(self, k, cids, boxes, rep, now, own) -> int | None:
         """Identity ``k`` was just lost: a younger cluster reported under its own identity whose
@@ -1976,6 +2070,7 @@ class FeatureClusterer:
             self._merged = []
             self._last_fi = fi
             if p.relink_s > 0:
+                self._app_img = image if p.relink_appearance else None
                 self._relink(snap, cids, np.zeros((0, 4)))
             return (Detections.empty(t, fi, self.source, self.camera_id),
                     Tracks.empty(t, fi, self.source, self.camera_id))
@@ -2101,6 +2196,7 @@ class FeatureClusterer:
         else:
             self._merged = []
         if p.relink_s > 0:
+            self._app_img = image if p.relink_appearance else None
             ids = self._relink(snap, cids, boxes, vel)
             for r in ids:
                 self._birth.setdefault(int(r), t)
