@@ -479,7 +479,9 @@ def _profile(ctx, model, imgs, dataset, reps, prefix="profile"):
     horizon detection (done at most 5 times a second), the cascade (``detectMultiScale2``), and
     the part of it that is the image pyramid, integral images and variance checks alone (the
     same call with a cascade that rejects every window at its first stump); and how many windows
-    enter each stage (OpenCV's scan replayed by seawatch's evaluator on 5 frames)."""
+    enter each stage (OpenCV's scan replayed by seawatch's evaluator on 5 frames). For a model on
+    the 4x2 grid (``grid_step_x_px`` 4) only its own scan is timed: the variance-only call and the
+    replay would measure the 2 px grid."""
     from seawatch.detect.cascade import CascadeDetector
     from seawatch.detect.filters import prepare_grey, to_grey
     from seawatch.detect.horizon import detect_horizon
@@ -520,10 +522,16 @@ def _profile(ctx, model, imgs, dataset, reps, prefix="profile"):
         "pyramid+integrals+variance_only": med(lambda g: clf0.detectMultiScale2(
             g, scaleFactor=p.scale_factor, minNeighbors=1, minSize=det.window), small),
     }
+    if p.grid_step_x_px == 4:
+        # OpenCV's call and the stage replay below scan the 2 px grid, not this model's 4x2 grid:
+        # only the cascade row is its own scan
+        del stages["pyramid+integrals+variance_only"]
     found = sum(detect_horizon(to_grey(im)) is not None for im in imgs)
     for k, v in stages.items():
         ctx.record(dataset, f"{prefix}:{k}", "ms_per_frame", v, "ms", clock="cpu", detection_width_px=dw,
                    scale_factor=p.scale_factor, horizon_found_frames=found, n_frames=len(imgs))
+    if p.grid_step_x_px == 4:
+        return
     nst = casc.n_stages
     reach = np.zeros(nst + 1)
     n_prof = len(small[:5])

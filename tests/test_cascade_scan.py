@@ -111,11 +111,24 @@ def test_deinterleave():
     a = np.arange(5 * 7).reshape(5, 7)
     flat, cols = deinterleave(a, 2)
     assert cols == 4
-    parts = flat[: 2 * 5 * 4].reshape(2, 5, 4)
-    assert np.array_equal(parts[0], a[:, 0::2])
-    assert np.array_equal(parts[1, :, :3], a[:, 1::2]) and np.array_equal(parts[1, :, 3], a[:, -1])
+    parts = flat[: 5 * 2 * 4].reshape(5, 2, 4)  # row, part (column modulo 2), column
+    assert np.array_equal(parts[:, 0], a[:, 0::2])
+    assert np.array_equal(parts[:, 1, :3], a[:, 1::2]) and np.array_equal(parts[:, 1, 3], a[:, -1])
     flat4, cols4 = deinterleave(a, 4)
-    assert cols4 == 2 and np.array_equal(flat4[3 * 5 * 2: 4 * 5 * 2].reshape(5, 2)[:, 0], a[:, 3])
+    assert cols4 == 2 and np.array_equal(flat4[: 5 * 4 * 2].reshape(5, 4, 2)[:, 3, 0], a[:, 3])
+
+
+def test_levels_of_different_heights_share_the_offsets(tmp_path):
+    """The offsets are cached per level width: a level scanned from other rows (the horizon moved)
+    reuses them and still finds OpenCV's windows."""
+    path = _truncated(tmp_path, 4)
+    pc = PackedCascade(path)
+    clf = cv2.CascadeClassifier(str(path))
+    img = _scene(8)
+    for h in (150, 101, 64):
+        part = np.ascontiguousarray(img[-h:])
+        assert _scan(pc, part) == _opencv_windows(clf, part, pc.width_px, pc.height_px)
+    assert len(pc._offsets) == 1
 
 
 def test_bad_arguments(tmp_path):
@@ -134,6 +147,15 @@ def test_bad_arguments(tmp_path):
         CascadeDetector(V6, scanner="cuda")
     with pytest.raises(ValueError, match="grid_step_x_px"):
         CascadeDetector(V6, grid_step_px=0, grid_step_x_px=4)
+    with pytest.raises(ValueError, match="2 px grid only"):
+        CascadeDetector(V6, grid_step_px=0, scanner="numba")
+    # the model's 4x2 grid is a 2 px grid's: asking for OpenCV's grid drops it, not an error
+    g4 = default_model_path().parent / "boat_cascade_v6g4.xml"
+    assert CascadeDetector(g4, grid_step_px=0).params.grid_step_x_px == 0
+    assert CascadeDetector(g4).params.grid_step_x_px == 4
+    with pytest.raises(ValueError, match="grid_step_x_px=2"):
+        CascadeDetector(g4, scanner="opencv")
+    assert not CascadeDetector(g4, scanner="opencv", grid_step_x_px=2)._use_numba()
     with pytest.raises(ValueError, match="grid_step_x_px"):
         CascadeDetector(V6, grid_step_px=2, grid_step_x_px=3)
 
@@ -213,7 +235,7 @@ def test_a_cascade_the_scanner_cannot_read(tmp_path):
     bad = tmp_path / "deep.xml"
     bad.write_text(xml2)
     det = CascadeDetector(bad, grid_step_px=2)
-    assert det.params.scanner == "opencv" and not det._use_numba()
+    assert det.params.scanner == "auto" and not det._use_numba()
     with pytest.raises(ValueError, match="Numba scanner cannot read"):
         CascadeDetector(bad, grid_step_px=2, scanner="numba")
     with pytest.raises(ValueError, match="Numba scanner cannot read"):

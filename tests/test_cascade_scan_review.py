@@ -419,9 +419,6 @@ def test_one_packed_cascade_scanned_from_threads(tmp_path):
     assert not errors and got == want
 
 
-@pytest.mark.xfail(strict=True, reason="review H3: the model's grid_step_x_px 4 (v6g4's JSON, the default's) "
-                   "makes an explicit grid_step_px=0 (OpenCV's grid) a ValueError; scanstats.speed_compare "
-                   "(grids 0 and 2) and recipe's grid modes build exactly that")
 def test_the_default_model_on_opencvs_grid():
     det = CascadeDetector(V6G4, grid_step_px=0)
     assert det.params.grid_step_x_px in (0, 2) and not det._use_numba()

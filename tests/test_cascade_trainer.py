@@ -329,6 +329,34 @@ def test_settings_are_chosen_on_the_select_on_sources_only(trained, tmp_path):
         choose_detector_settings(model, parts, select_on="video2", log=lambda m: None)
 
 
+def test_choosing_settings_again_keeps_a_4x2_grid(trained, tmp_path):
+    """A model whose JSON says the 4x2 grid (grid_step_x_px 4, session 18): choosing its settings
+    again on the 2 px grid chooses them on the 4x2 grid and keeps that in the JSON; on OpenCV's grid
+    the x step is dropped (it belongs to the 2 px grid)."""
+    import dataclasses
+    import json
+    import shutil
+
+    from seawatch.train.recipe import choose_detector_settings
+
+    _, _, xml = trained
+    model = tmp_path / "m.xml"
+    shutil.copy(xml, model)
+    meta = json.loads(xml.with_suffix(".json").read_text())
+    meta["detector"] = {"min_neighbors": 3, "scale_factor": 1.2, "neighbors_size_exp": 0.0,
+                        "grid_step_px": 2, "grid_step_x_px": 4}
+    model.with_suffix(".json").write_text(json.dumps(meta))
+    port = [dataclasses.replace(im, source="mardct") for im in _synthetic_images(2, 710)]
+    parts = {"train": [], "val": port, "heldout": []}
+    out = choose_detector_settings(model, parts, scale_factors=(1.2,), grid_modes=(2,), report_others=False,
+                                   log=lambda m: None)
+    assert out["detector"]["grid_step_px"] == 2 and out["detector"]["grid_step_x_px"] == 4
+    assert json.loads(model.with_suffix(".json").read_text())["detector"]["grid_step_x_px"] == 4
+    out0 = choose_detector_settings(model, parts, scale_factors=(1.2,), grid_modes=(0,), report_others=False,
+                                    log=lambda m: None)
+    assert "grid_step_x_px" not in out0["detector"]
+
+
 def test_training_frames_keep_the_pinned_render_options():
     """The simulator's training frames are drawn with the pinned options (byte-reproducible training)."""
     from seawatch.sim import make_scenario

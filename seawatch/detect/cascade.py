@@ -88,11 +88,13 @@ class CascadeParams:
     # level scanned by its own call); -1: the model's value (stored beside it), else 0
     grid_step_px: int = -1
     # on the 2 px grid, which code evaluates the windows: "numba" (seawatch.detect.cascade_scan, the
-    # same decisions as OpenCV's, about 1.4x faster), "opencv" (cv2.CascadeClassifier), or "auto"
-    # (numba on the 2 px grid; OpenCV's grid is always scanned by OpenCV)
+    # same decisions as OpenCV's, about 1.4x faster per level, 1.2x in the whole detector),
+    # "opencv" (cv2.CascadeClassifier), or "auto" (numba on the 2 px grid when it can read the
+    # cascade; OpenCV's grid is always scanned by OpenCV)
     scanner: str = "auto"
     # x step of the window grid with grid_step_px 2: 0 or 2 = OpenCV's 2 px; 4 = every 4 px in x
-    # (2 px in y; the Numba scanner, every position evaluated); -1: the model's value, else 0
+    # (2 px in y; the Numba scanner, every position evaluated); -1: the model's value when the grid
+    # is 2 px, else 0
     grid_step_x_px: int = -1
     scan_region_margin_win: float = 0.5  # extra rows above that limit, in window heights (grouping)
     reflection_filter: bool = True
@@ -157,16 +159,22 @@ class CascadeDetector:
             p.grid_step_px = int(tuned.get("grid_step_px", 0))
         if p.grid_step_px not in (0, 2):
             raise ValueError(f"grid_step_px must be 0 (OpenCV's grid) or 2, got {p.grid_step_px}")
-        if p.grid_step_x_px < 0:
-            p.grid_step_x_px = int(tuned.get("grid_step_x_px", 0))
+        explicit_x = p.grid_step_x_px >= 0
+        if not explicit_x:  # the model's x step belongs to its 2 px grid: none on OpenCV's grid
+            p.grid_step_x_px = int(tuned.get("grid_step_x_px", 0)) if p.grid_step_px == 2 else 0
         if p.grid_step_x_px not in (0, 2, 4):
             raise ValueError(f"grid_step_x_px must be 0, 2 or 4, got {p.grid_step_x_px}")
         if p.grid_step_x_px == 4 and p.grid_step_px != 2:
             raise ValueError("grid_step_x_px 4 needs grid_step_px 2")
         if p.scanner not in ("auto", "numba", "opencv"):
             raise ValueError(f"scanner must be 'auto', 'numba' or 'opencv', got {p.scanner!r}")
+        if p.scanner == "numba" and p.grid_step_px != 2:
+            raise ValueError("the Numba scanner scans the 2 px grid only (grid_step_px 2); OpenCV's grid is "
+                             "scanned by OpenCV")
         if p.scanner == "opencv" and p.grid_step_x_px == 4:
-            raise ValueError("grid_step_x_px 4 is scanned by the Numba scanner only (scanner 'opencv' given)")
+            raise ValueError(("grid_step_x_px 4" if explicit_x else f"{path.name}'s 4x2 px grid (its JSON)")
+                             + " is scanned by the Numba scanner only: give grid_step_x_px=2 to scan the 2 px "
+                             "grid with OpenCV")
         self.packed = None  # the Numba scanner's cascade (2 px grid, scanner not "opencv")
         if p.grid_step_px == 2 and p.scanner != "opencv":
             from seawatch.detect.cascade_scan import PackedCascade
@@ -176,7 +184,7 @@ class CascadeDetector:
             except ValueError as exc:  # e.g. trees deeper than stumps, tilted features
                 if p.scanner == "numba" or p.grid_step_x_px == 4:
                     raise ValueError(f"the Numba scanner cannot read this cascade: {exc}") from None
-                p.scanner = "opencv"  # "auto": OpenCV scans it
+                # "auto": OpenCV scans it (self.packed stays None)
         self.dx_frac = float(meta.get("box_dx_frac", 0.0))
         self.dy_frac = float(meta.get("box_dy_frac", 0.0))
         self.params = p

@@ -108,12 +108,12 @@ class PackedCascade:
             return np.zeros((0, 2), np.int64)
         rows, W1 = h + 1, w + 1
         cols = (W1 + step_x - 1) // step_x
-        key = (rows, W1, step_x)
+        key = (W1, step_x)  # not the height: a level's rows scanned follow the horizon
         tabs = self._offsets.get(key)
         if tabs is None:
-            def dcorner(dy, dx):
+            def dcorner(dy, dx):  # in the split copy: row, then part (column modulo step_x), then column
                 dx = np.asarray(dx, np.int64)
-                return (dx % step_x) * rows * cols + np.asarray(dy, np.int64) * cols + dx // step_x
+                return (np.asarray(dy, np.int64) * step_x + dx % step_x) * cols + dx // step_x
 
             x, y, rw, rh = (self.rects[..., i] for i in range(4))
             off_d = np.stack([dcorner(y, x), dcorner(y, x + rw), dcorner(y + rh, x), dcorner(y + rh, x + rw)], -1)
@@ -132,25 +132,26 @@ class PackedCascade:
         I = ii.ravel()
         L = (w - ww) // step_x + 1
         out = np.empty((((y_last - y_lo) // 2 + 1) * L, 2), np.int64)
-        n = _scan_level(D, Q, cols, L, step_x, ww, wh, y_lo, y_last, self.n_dense, var_off, self.start,
+        n = _scan_level(D, Q, step_x * cols, L, step_x, ww, wh, y_lo, y_last, self.n_dense, var_off, self.start,
                         self.thr, self.nrect, off_d, self.wts, self.split, self.left, self.right, I, W1, off_i, out)
         return out[:n]
 
 
 def deinterleave(a: np.ndarray, k: int) -> tuple[np.ndarray, int]:
-    """A flat copy of the 2-D array ``a`` split by column modulo ``k``: the columns ``0, k, 2k,
-    ...`` of every row, then ``1, k + 1, ...``, and so on (each part ``cols`` wide, padded with
-    the row's last value), followed by ``PAD`` zeros; and ``cols``."""
+    """A flat copy of the 2-D array ``a`` split by column modulo ``k`` within each row: row 0's
+    columns ``0, k, 2k, ...``, then its columns ``1, k + 1, ...``, and so on, then row 1's (each
+    part ``cols`` wide, padded with the row's last value), followed by ``PAD`` zeros; and
+    ``cols``. A corner's offset from a window's then depends on the width only, not the height."""
     rows, n = a.shape
     cols = (n + k - 1) // k
     flat = np.empty(k * rows * cols + PAD, a.dtype)
     flat[k * rows * cols:] = 0
-    parts = flat[: k * rows * cols].reshape(k, rows, cols)
+    parts = flat[: k * rows * cols].reshape(rows, k, cols)
     for r in range(k):
         m = len(range(r, n, k))
-        parts[r, :, :m] = a[:, r::k]
+        parts[:, r, :m] = a[:, r::k]
         if m < cols:
-            parts[r, :, m:] = a[:, -1:]
+            parts[:, r, m:] = a[:, -1:]
     return flat, cols
 
 
@@ -180,11 +181,11 @@ def _dense_stump(D, row, L, off, j, w0, w1, w2, three, sp, lf, rt, fac, acc):
 
 
 @njit(cache=True, boundscheck=False, nogil=True)
-def _scan_level(D, Q, cols, L, step_x, win_w, win_h, y_lo, y_last, n_dense, var_off, start, thr, nrect, off,
+def _scan_level(D, Q, rstride, L, step_x, win_w, win_h, y_lo, y_last, n_dense, var_off, start, thr, nrect, off,
                 wts, split, left, right, I, stride, off_i, out):
     """Accepted windows of one level: their number, their (x, y) in ``out``.
 
-    ``D`` / ``Q``: the split int32 / float64 integral images (``cols`` per row and part); ``L``
+    ``D`` / ``Q``: the split int32 / float64 integral images (``rstride`` per row); ``L``
     positions per row, ``step_x`` px apart; rows ``y_lo`` to ``y_last`` every 2 px; the first
     ``n_dense`` stages dense per row; then the survivors of the row breadth-first, reading the
     integral image itself (``I``, flat, ``stride`` per row; corner offsets ``off_i``).
@@ -200,7 +201,7 @@ def _scan_level(D, Q, cols, L, step_x, win_w, win_h, y_lo, y_last, n_dense, var_
     skip = 1 if step_x == 2 else 0  # OpenCV's skip after a first-stage reject, on its grid only
     n = 0
     for oy in range(y_lo, y_last + 1, 2):
-        row = oy * cols
+        row = oy * rstride
         s1 = D[row + var_off[0]:]; s2 = D[row + var_off[1]:]; s3 = D[row + var_off[2]:]; s4 = D[row + var_off[3]:]
         q1 = Q[row + var_off[0]:]; q2 = Q[row + var_off[1]:]; q3 = Q[row + var_off[2]:]; q4 = Q[row + var_off[3]:]
         for x in range(L):  # the variance factor, branch-free so that it vectorises

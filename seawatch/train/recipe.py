@@ -285,6 +285,11 @@ def choose_detector_settings(model_xml: str | Path, parts: dict[str, list[Labell
     if len(grid_modes) > 1 or chosen != 0:
         settings["grid_step_px"] = int(chosen)
         log(f"  grid chosen: {chosen} (scores {', '.join(f'{g}: {v:.4f}' for g, v in score.items())})")
+    from seawatch.detect.cascade import load_model_meta
+
+    old_block = load_model_meta(model_xml).get("detector") or {}
+    if chosen == 2 and "grid_step_x_px" in old_block:
+        settings["grid_step_x_px"] = int(old_block["grid_step_x_px"])  # the 2 px grid's x step, chosen on
     _update_json(model_xml, {"detector": settings})
     grid_kw = {"grid_step_px": int(chosen)}
     others = {}

@@ -450,6 +450,13 @@ def played_compare(before_commit: str, model_xml: str | Path, parts: dict, setti
     return out
 
 
+def _sorted_rows(d) -> np.ndarray:
+    """Detections as rows (box, score) in a fixed order: OpenCV's multi-threaded scan returns the
+    raw windows, and so the groups, in an order that varies; the order is not a decision."""
+    r = np.column_stack([np.asarray(d.boxes, np.float64).reshape(-1, 4), np.asarray(d.scores, np.float64)])
+    return r[np.lexsort(r.T[::-1])]
+
+
 def scanner_check(models, parts: dict, settings=None, size=(704, 576), passes: int = 3, seq_len: int = 20) -> dict:
     """The Numba scanner (:mod:`seawatch.detect.cascade_scan`) against OpenCV's in the whole
     detector: every model (with ``settings``: :class:`~seawatch.detect.cascade.CascadeParams`
@@ -466,7 +473,7 @@ def scanner_check(models, parts: dict, settings=None, size=(704, 576), passes: i
     seqs = played_sequences(ims, size, seq_len)
     out = {}
     for m in models:
-        kw = dict(settings or {}, grid_step_px=2)
+        kw = dict(settings or {}, grid_step_px=2, grid_step_x_px=2)  # OpenCV's 2 px grid, which both scan
         dets = {sc: CascadeDetector(m, scanner=sc, **kw) for sc in ("opencv", "numba")}
         n_diff = n_frames = 0
         for seq in seqs:  # the detections, frame by frame
@@ -476,7 +483,7 @@ def scanner_check(models, parts: dict, settings=None, size=(704, 576), passes: i
                 fr = Frame(img, i / 25.0, i)
                 a, b = (dets[sc].detect(fr) for sc in ("opencv", "numba"))
                 n_frames += 1
-                n_diff += not (np.array_equal(a.boxes, b.boxes) and np.array_equal(a.scores, b.scores))
+                n_diff += not np.array_equal(_sorted_rows(a), _sorted_rows(b))
         tps = played_cpu_s(dets, seqs, passes)
         fps = {sc: 1.0 / float(np.median([t for p in tps[sc] for t in p])) for sc in dets}
         out[Path(m).stem] = {"settings": {k: v for k, v in kw.items()}, "frames": n_frames,
