@@ -61,26 +61,26 @@ def run(**kw):
     return ida, idb, int(tr.ids[0]), out, c
 
 
-def test_off_by_default():
+def test_on_by_default():
     p = ClusterParams()
-    assert p.relink_appearance is False
+    assert p.relink_appearance is True and p.relink_appearance_max == 1.4
 
 
 def test_without_the_check_the_nearer_lost_identity_is_taken():
-    ida, idb, now, _, c = run()
+    ida, idb, now, _, c = run(relink_appearance=False)
     assert now == ida  # the dark boat's identity on the bright boat: the old behaviour
     assert len(c.relink_log) == 0  # nothing checked
 
 
 def test_with_the_check_the_other_boats_identity_is_refused():
-    ida, idb, now, _, c = run(relink_appearance=True)
+    ida, idb, now, _, c = run()  # on by default
     assert now == idb  # the bright boat gets its own identity back
     refused = {k: r for (_, k, _, _, _, _, r) in c.relink_log}
     assert refused == {ida: True, idb: False}
 
 
 def test_the_check_with_an_infinite_threshold_changes_nothing():
-    *_, off, _ = run()
+    *_, off, _ = run(relink_appearance=False)
     *_, on, c = run(relink_appearance=True, relink_appearance_max=np.inf)
     assert len(c.relink_log) == 2  # both pairs were checked, none refused
     assert len(off) == len(on)
