@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from seawatch.detect.features import FeatureSnapshot
+from _feature_snap import snap as _snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, grow_boxes
 
 
@@ -57,14 +57,8 @@ def test_peak_fraction_leaves_out_a_halo():
 
 
 def snap(xy, vel, t, fi, ids=None, h=None):
-    n = len(xy)
-    hist = np.repeat(np.asarray(vel, float)[:, None, :], 4, axis=1)
-    return FeatureSnapshot(
-        t_s=t, frame_index=fi, ids=np.arange(n) + 10 if ids is None else np.asarray(ids), slots=np.arange(n),
-        xy=np.asarray(xy, float), size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),
-        matched=np.ones(n, bool), velocity=hist[:, -1], history=hist, image_velocity=hist[:, -1],
-        homography=np.eye(3) if h is None else h, dt_s=0.1, n_keypoints=n, n_matched=n, shape=(160, 240),
-    )
+    """As _feature_snap.snap, with slots 0, 1, ... even when ids are given."""
+    return _snap(xy, vel, t, fi, ids=ids, h=h, slots=np.arange(len(xy)))
 
 
 def test_contrast_check_drops_a_cluster_on_plain_texture():

@@ -4,7 +4,7 @@ not given to a new cluster that looks unlike the lost box did when it was last s
 import numpy as np
 import pytest
 
-from seawatch.detect.features import FeatureSnapshot
+from _feature_snap import snap
 from seawatch.track.feature_clusters import (
     ClusterParams,
     FeatureClusterer,
@@ -14,18 +14,6 @@ from seawatch.track.feature_clusters import (
 )
 
 SHAPE = (160, 240)
-
-
-def snap(xy, vel, t, fi, ids):
-    """A snapshot of stable features (each feature's slot is its identity)."""
-    n = len(xy)
-    hist = np.repeat(np.asarray(vel, float).reshape(-1, 2)[:, None, :], 4, axis=1)
-    return FeatureSnapshot(
-        t_s=t, frame_index=fi, ids=np.asarray(ids), slots=np.asarray(ids),
-        xy=np.asarray(xy, float).reshape(-1, 2), size_px=np.full(n, 4.0), confidence=np.full(n, 6),
-        stable=np.ones(n, bool), matched=np.ones(n, bool), velocity=hist[:, -1], history=hist,
-        image_velocity=hist[:, -1], homography=np.eye(3), dt_s=0.1, n_keypoints=n, n_matched=n, shape=SHAPE,
-    )
 
 
 def sea(seed, boats=()):
