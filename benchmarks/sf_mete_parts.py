@@ -11,7 +11,8 @@ METE's own largest-total-IoU assignment) into additive parts that sum to the mea
   to the first that applies:
   ``merged`` (half or more of its box lies in a report matched to another boat: two boats in one
   report), ``never`` (the boat is matched in no frame of the sequence), ``late`` (a frame before
-  the boat's first matched frame), ``lost`` (a frame after it: dropped or gaps);
+  the boat's first matched frame), ``lost`` (a frame after it: dropped or gaps; also split by the
+  length of the run of unmatched in-view frames it lies in);
 * cardinality in frames with ``m > n`` (the bench's "reports beyond the boats' count"), each
   unmatched report charged to ``clutter`` (IoU < 0.1 with every boat in view) or ``on_boat``
   (overlaps a boat: a second report on it, a fragment).
@@ -148,6 +149,20 @@ def main(argv=None) -> int:
         else:
             pairs[k] = (np.zeros(0, int), np.zeros(0, int), np.zeros((len(gi), len(pi))))
 
+    # each boat's runs of in-view frames without a match after its first match: (boat, frame) -> run length
+    runs = {}
+    for v in first_match:
+        seq = [(k, v in set(int(gt[k][0][a]) for a in pairs[k][0])) for k in frames
+               if k >= first_match[v] and v in set(int(x) for x in gt[k][0])]
+        cur = []
+        for k, ok in seq + [(None, True)]:
+            if ok:
+                for kk in cur:
+                    runs[(v, kk)] = len(cur) / scn.fps
+                cur = []
+            else:
+                cur.append(k)
+    lost_gap = np.zeros(3)  # lost by the length of the run it is in: < 1 s, 1-5 s, >= 5 s
     tot = {p: 0.0 for p in PARTS}
     tot_slow = {p: 0.0 for p in PARTS}
     clutter_subst = 0.0
@@ -194,6 +209,8 @@ def main(argv=None) -> int:
                     part = "late"
                 else:
                     part = "lost"
+                    g = runs.get((v, k), 0.0)
+                    lost_gap[0 if g < 1.0 else 1 if g < 5.0 else 2] += 1.0 / den
                 tot[part] += 1.0 / den
                 if v in slow[k]:
                     tot_slow[part] += 1.0 / den
@@ -216,6 +233,8 @@ def main(argv=None) -> int:
     print(f"acc_other by the pair's IoU: < 0.3 {acc_band[0] / nf:.4f}, 0.3-0.7 {acc_band[1] / nf:.4f}, "
           f">= 0.7 {acc_band[2] / nf:.4f}; by report area / boat area: > 1.5 {acc_size[0] / nf:.4f}, "
           f"< 1/1.5 {acc_size[1] / nf:.4f}, between {acc_size[2] / nf:.4f}")
+    print(f"lost by the length of the unmatched run (in view) it lies in: < 1 s {lost_gap[0] / nf:.4f}, "
+          f"1-5 s {lost_gap[1] / nf:.4f}, >= 5 s {lost_gap[2] / nf:.4f}")
     print(f"missed boats in frames that also have an unmatched report on clutter: {clutter_subst / nf:.4f}")
     print(f"assigned pairs without overlap (METE's accuracy term counts them as 1 each, the parts above as "
           f"missed boats): {unpaired / nf:.4f}; accuracy {acc:.4f} + {unpaired / nf:.4f} = {acc + unpaired / nf:.4f}")
@@ -238,6 +257,7 @@ def main(argv=None) -> int:
                                      parts_slow=out_slow, clutter_subst=clutter_subst / nf,
                                      unpaired=unpaired / nf, acc_other_by_iou=(acc_band / nf).tolist(),
                                      acc_other_by_area=(acc_size / nf).tolist(),
+                                     lost_by_run_s=(lost_gap / nf).tolist(),
                                      delays_s={str(v): d for v, d in delays.items()})) + "\n")
     return 0
 
