@@ -163,6 +163,7 @@ def main(argv=None) -> int:
             else:
                 cur.append(k)
     lost_gap = np.zeros(3)  # lost by the length of the run it is in: < 1 s, 1-5 s, >= 5 s
+    late_boat = {}  # boat -> its late part (sum over frames)
     tot = {p: 0.0 for p in PARTS}
     tot_slow = {p: 0.0 for p in PARTS}
     clutter_subst = 0.0
@@ -207,6 +208,7 @@ def main(argv=None) -> int:
                     part = "never"
                 elif k < first_match[v]:
                     part = "late"
+                    late_boat[v] = late_boat.get(v, 0.0) + 1.0 / den
                 else:
                     part = "lost"
                     g = runs.get((v, k), 0.0)
@@ -249,6 +251,9 @@ def main(argv=None) -> int:
         print(f"{v:4d}  {first_seen[v] / scn.fps:8.1f} s  "
               f"{'never' if fm is None else f'{fm / scn.fps:8.1f} s':>13s}  "
               f"{'-' if d is None else f'{d:7.1f}':>7s}  {nm:4d} / {nv:4d}")
+    long_late = sum(w for v, w in late_boat.items() if delays.get(v) is not None and delays[v] >= 3.0)
+    print(f"late part of the boats first matched 3 s or more after coming into view: {long_late / nf:.4f} "
+          f"(of {out['late']:.4f})")
     if args.json:
         with open(args.json, "a") as fh:
             fh.write(json.dumps(dict(scenario=args.scenario, seed=args.seed, frames=nf, fps=scn.fps,
@@ -257,7 +262,7 @@ def main(argv=None) -> int:
                                      parts_slow=out_slow, clutter_subst=clutter_subst / nf,
                                      unpaired=unpaired / nf, acc_other_by_iou=(acc_band / nf).tolist(),
                                      acc_other_by_area=(acc_size / nf).tolist(),
-                                     lost_by_run_s=(lost_gap / nf).tolist(),
+                                     lost_by_run_s=(lost_gap / nf).tolist(), late_ge3s=long_late / nf,
                                      delays_s={str(v): d for v, d in delays.items()})) + "\n")
     return 0
 
