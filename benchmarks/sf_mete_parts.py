@@ -36,6 +36,7 @@ Example (the 12 tuning sequences, one JSON line each)::
     for s in pan ir; do for k in 1 2 5 6 7 8; do
       .venv/bin/python benchmarks/sf_mete_parts.py $s $k --cache /tmp/s18h2/cache --json parts.jsonl
     done; done
+    .venv/bin/python benchmarks/sf_mete_parts.py --summary parts.jsonl
 """
 
 from __future__ import annotations
@@ -79,8 +80,37 @@ def _slow_ids(scn, i, ids, floor):
     return out
 
 
+def summary(path) -> int:
+    """Means over the JSON lines in ``path`` (one per sequence): METE, the bench's split, the oracle,
+    and each part on all boats, on the slow ones and on the moving ones (with clutter), as a share
+    of the gap to 0.4 and (the moving part) of the gap to the oracle."""
+    rows = [json.loads(line) for line in open(path) if line.strip()]
+    mean = {k: float(np.mean([r[k] for r in rows])) for k in ("METE", "accuracy", "cardinality", "oracle",
+                                                               "unpaired", "clutter_subst", "late_ge3s")}
+    print(f"{len(rows)} sequences: " + ", ".join(f"{k} {v:.4f}" for k, v in mean.items()))
+    g4, go = mean["METE"] - 0.4, mean["METE"] - mean["oracle"]
+    print(f"gap to 0.4 {g4:.4f}, to the oracle {go:.4f}")
+    print("part         all     slow    moving  /gap-0.4  moving/gap-oracle")
+    for p in PARTS:
+        a = float(np.mean([r["parts"][p] for r in rows]))
+        b = float(np.mean([r["parts_slow"][p] for r in rows]))
+        print(f"{p:11s}  {a:.4f}  {b:.4f}  {a - b:.4f}  {a / g4:8.2f}  {(a - b) / go:8.2f}")
+    for k in ("acc_other_by_iou", "acc_other_by_area", "lost_by_run_s"):
+        print(k, " ".join(f"{x:.4f}" for x in np.mean([r[k] for r in rows], axis=0)))
+    d = [v for r in rows for v in r["delays_s"].values() if v is not None]
+    nv = sum(v is None for r in rows for v in r["delays_s"].values())
+    print(f"first-match delays: {len(d)} boats, median {np.median(d):.1f} s, max {max(d):.1f} s, "
+          f">= 3 s {sum(x >= 3.0 for x in d)}; never matched {nv}")
+    return 0
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_mete_parts.py", description=__doc__.split("\n\n")[0])
+    if argv is None:
+        argv = sys.argv[1:]
+    if len(argv) == 2 and argv[0] == "--summary":
+        return summary(argv[1])
+    ap = argparse.ArgumentParser(prog="sf_mete_parts.py", description=__doc__.split("\n\n")[0],
+                                 epilog="sf_mete_parts.py --summary FILE: the means over FILE's JSON lines")
     ap.add_argument("scenario")
     ap.add_argument("seed", type=int)
     ap.add_argument("--cache", default=None, metavar="DIR", help="sf_diagnose.py's snapshot cache (same keys)")
