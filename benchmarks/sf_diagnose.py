@@ -76,6 +76,24 @@ def _in_box(xy, b):
     return int(((xy[:, 0] >= b[0]) & (xy[:, 0] <= b[0] + b[2]) & (xy[:, 1] >= b[1]) & (xy[:, 1] <= b[1] + b[3])).sum())
 
 
+def snapshot_cache(cache_dir, scenario, seed, duration_s, ext_kw, horizon):
+    """The snapshot file of a scenario run in ``cache_dir`` (its key: the scenario, seed, duration,
+    extractor settings, horizon source and the extractor's code) and its recorded snapshots, or
+    None when there are none yet."""
+    import seawatch.detect.features as _features
+
+    with open(_features.__file__, "rb") as fh:  # the extractor's code (its defaults) is part of the key
+        code = hashlib.sha1(fh.read()).hexdigest()
+    key = json.dumps(["v2", scenario, seed, duration_s, ext_kw, horizon, code], sort_keys=True)
+    path = os.path.join(cache_dir, f"{scenario}_{seed}_{hashlib.sha1(key.encode()).hexdigest()[:12]}.pkl")
+    if not os.path.exists(path):
+        return path, None
+    with open(path, "rb") as fh:
+        recorded = pickle.load(fh)
+    print(f"replaying the clustering on the snapshots in {path}")
+    return path, recorded
+
+
 def parse_params(text: str, prog: str) -> dict | None:
     """``--params`` as a JSON object; None (with the reason on stderr, naming ``prog``) when it is not one."""
     try:
@@ -112,18 +130,8 @@ def main(argv=None) -> int:
     cpu = 0.0
     cache_path, recorded, record = None, None, None
     if args.cache:
-        import seawatch.detect.features as _features
-
-        with open(_features.__file__, "rb") as fh:  # the extractor's code (its defaults) is part of the key
-            code = hashlib.sha1(fh.read()).hexdigest()
-        key = json.dumps(["v2", args.scenario, args.seed, args.duration_s, ext_kw, horizon, code], sort_keys=True)
-        cache_path = os.path.join(args.cache, f"{args.scenario}_{args.seed}_"
-                                  f"{hashlib.sha1(key.encode()).hexdigest()[:12]}.pkl")
-        if os.path.exists(cache_path):
-            with open(cache_path, "rb") as fh:
-                recorded = pickle.load(fh)
-            print(f"replaying the clustering on the snapshots in {cache_path}")
-        else:
+        cache_path, recorded = snapshot_cache(args.cache, args.scenario, args.seed, args.duration_s, ext_kw, horizon)
+        if recorded is None:
             record = []
     for f, g in scn.iter_frames():
         vis = g.visible > 0

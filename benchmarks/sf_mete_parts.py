@@ -42,7 +42,6 @@ Example (the 12 tuning sequences, one JSON line each)::
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import pickle
@@ -118,12 +117,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     import cv2
 
-    import seawatch.detect.features as _features
     from seawatch.detect.features import StableFeatureExtractor
     from seawatch.eval import box_iou, mete
     from seawatch.sim import make_scenario
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
-    from sf_diagnose import _process, mete_pairs  # this folder is on the path when run as a script
+    from sf_diagnose import _process, mete_pairs, snapshot_cache  # this folder is on the path as a script
 
     cv2.setNumThreads(1)
     scn = make_scenario(args.scenario, seed=args.seed)
@@ -131,16 +129,8 @@ def main(argv=None) -> int:
                                horizon="camera")
     recorded, record, cache_path = None, None, None
     if args.cache:  # sf_diagnose.py's key with no --params and no --duration-s
-        with open(_features.__file__, "rb") as fh:
-            code = hashlib.sha1(fh.read()).hexdigest()
-        key = json.dumps(["v2", args.scenario, args.seed, None, {}, "camera", code], sort_keys=True)
-        cache_path = os.path.join(args.cache, f"{args.scenario}_{args.seed}_"
-                                  f"{hashlib.sha1(key.encode()).hexdigest()[:12]}.pkl")
-        if os.path.exists(cache_path):
-            with open(cache_path, "rb") as fh:
-                recorded = pickle.load(fh)
-            print(f"replaying the clustering on the snapshots in {cache_path}")
-        else:
+        cache_path, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
+        if recorded is None:
             record = []
             print(f"no snapshots under this key yet: recording {cache_path}")
     floor = ClusterParams().min_speed_px_s
