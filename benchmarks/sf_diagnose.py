@@ -158,7 +158,7 @@ def main(argv=None) -> int:
     ml = melt(gt, pred, frames=frames)
     print(f"{args.scenario} seed {args.seed}: {len(frames)} frames, stage CPU {1e3 * cpu / len(frames):.1f} ms/frame")
     k25 = int(np.argmin(np.abs(np.asarray(ml["tau"]) - 0.25)))
-    print(f"METE {e['METE']:.3f} (accuracy {e['METE_accuracy']:.3f} + cardinality {e['METE_cardinality']:.3f}) "
+    print(f"METE {e['METE']:.4f} (accuracy {e['METE_accuracy']:.3f} + cardinality {e['METE_cardinality']:.3f}) "
           f"IDSW {idsw} MELT {ml['MELT']:.3f} MELT@0.25 {float(ml['MELT_tau'][k25]):.3f}")
 
     kinds = {v.id: v.type for v in scn.vessels}
