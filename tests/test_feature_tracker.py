@@ -13,7 +13,7 @@ from seawatch.detect.features import (
     to_grey_u8,
 )
 from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
-from seawatch.types import DetectorTracker, Frame
+from seawatch.types import DetectorTracker, Frame, TrackState
 
 FPS = 25.0
 W, H = 320, 240
@@ -181,7 +181,9 @@ def test_tracker_on_synthetic_pan_and_zoom():
     n_gt = 0
     for i, (t, img, boxes) in enumerate(synthetic_pan()):
         dets, tracks = trk.process(Frame(img, t, i))
-        assert len(dets) == len(tracks)
+        # the detections are the clusters seen; a coasting track (session 19) has none and comes last
+        live = tracks.states != int(TrackState.COASTING)
+        assert np.array_equal(dets.boxes, tracks.boxes[live]) and not live[len(dets):].any()
         for k, box in boxes.items():
             n_gt += 1
             if not len(tracks):

@@ -854,8 +854,8 @@ def grow_boxes(
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
     wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
-    cut_core_frac: float = 0.0, cut_core_undo: bool = False,
-) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    cut_core_frac: float = 0.0, cut_core_undo: bool = False, return_found: bool = False,
+) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
     A cluster's features lie inside the hull, so the extent of its features is smaller than the
@@ -917,6 +917,8 @@ def grow_boxes(
         darker hull under a bright cabin, or a low stern, than a reflection or a wake.
     cut_core_undo : bool
         See ``cut_core_frac``.
+    return_found : bool
+        Also return whether each box was grown (session 19; implies ``return_contrast``).
 
     Returns
     -------
@@ -924,6 +926,8 @@ def grow_boxes(
     contrast : (N,) float64, only with ``return_contrast``: the core's contrast (90th percentile
         of its difference from the background) over the background's robust noise (at least 1
         grey level); NaN where the window is too small to tell.
+    found : (N,) bool, only with ``return_found``: whether the box was grown (False: it is the
+        box given).
     """
     img = np.asarray(image)
     if img.ndim == 2:
@@ -933,6 +937,7 @@ def grow_boxes(
     cores = np.asarray(cores, np.float64).reshape(-1, 4)
     b = int(border_px)
     contrast = np.full(len(out), np.nan)
+    found = np.zeros(len(out), bool)
     trail = np.zeros(len(out), np.int64) if trail is None else np.asarray(trail, np.int64).reshape(-1)
     for n in range(len(out)):
         x, y, w, h = out[n]
@@ -952,6 +957,9 @@ def grow_boxes(
                 contrast[n] = c2
         if box is not None:
             out[n] = box
+            found[n] = True
+    if return_found:
+        return out, contrast, found
     return (out, contrast) if return_contrast else out
 
 
@@ -1490,7 +1498,14 @@ class ClusterParams:
     surroundings, per channel, relative to the stronger one; plus ``relink_appearance_tpl`` (0)
     times a 16x8 contrast template's part) above ``relink_appearance_max`` refuses the pair.  At
     1.4 it refuses little more than an inverted contrast (a dark object for a bright one); chosen
-    on the 12 tuning sequences (71 -> 69 identity switches, mean METE 0.4703 -> 0.4701)."""
+    on the 12 tuning sequences (71 -> 69 identity switches, mean METE 0.4703 -> 0.4701).
+    Session 19: ``coast_s`` (0: off) with ``coast_min_age_s``, ``coast_check``, ``coast_follow``,
+    ``coast_size_ratio`` and ``coast_overlap``: a reported identity lost less than ``coast_s``
+    ago, after being reported for at least ``coast_min_age_s``, is still reported (state
+    ``COASTING``) at the place the relink expects it, while the image still shows an object
+    there (:meth:`FeatureClusterer._coast`).  On by default at 15 s, 0.4 s, with the check and
+    ``coast_follow``: on the 12 tuning sequences mean METE 0.4702 -> 0.4465, identity switches
+    69 -> 67 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting")."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1550,6 +1565,12 @@ class ClusterParams:
     relink_appearance: bool = True
     relink_appearance_max: float = 1.4
     relink_appearance_tpl: float = 0.0
+    coast_s: float = 15.0
+    coast_min_age_s: float = 0.4
+    coast_check: bool = True
+    coast_follow: bool = True
+    coast_size_ratio: float = 2.0
+    coast_overlap: float = 0.5
 
 
 class FeatureClusterer:
@@ -1614,6 +1635,7 @@ class FeatureClusterer:
         self._app_img = None  # this frame's image (relink_appearance)
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
+        self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
         # (time, identity, cluster, its box, template part, level part, refused) of each pair the
         # appearance check looked at (relink_appearance; the last 1000, for diagnosis)
         self.relink_log: collections.deque = collections.deque(maxlen=1000)
@@ -2072,11 +2094,13 @@ class FeatureClusterer:
         if n == 0:
             self._merged = []
             self._last_fi = fi
+            tracks = Tracks.empty(t, fi, self.source, self.camera_id)
             if p.relink_s > 0:
                 self._app_img = image if p.relink_appearance else None
                 self._relink(snap, cids, np.zeros((0, 4)))
-            return (Detections.empty(t, fi, self.source, self.camera_id),
-                    Tracks.empty(t, fi, self.source, self.camera_id))
+                if p.coast_s > 0:
+                    tracks = self._with_coasts(tracks, snap, image)
+            return Detections.empty(t, fi, self.source, self.camera_id), tracks
         m = labels >= 0
         k = np.searchsorted(cids, labels[m])
         xy = snap.xy[m]
@@ -2215,7 +2239,103 @@ class FeatureClusterer:
         scores = 1.0 - np.exp(-count / 5.0)
         dets = Detections(t, fi, boxes, scores, self.source, self.camera_id)
         tracks = Tracks(t, fi, ids, boxes, vel, states, ages, self.source, self.camera_id)
+        if p.coast_s > 0 and p.relink_s > 0:
+            tracks = self._with_coasts(tracks, snap, image)
         return dets, tracks
+
+    def _with_coasts(self, tracks: Tracks, snap: FeatureSnapshot, image=None) -> Tracks:
+        """``tracks`` with the coasting identities appended (:meth:`_coast`)."""
+        ids, boxes, vel = self._coast(snap, tracks.boxes, image, set(int(i) for i in tracks.ids))
+        if not len(ids):
+            return tracks
+        t = snap.t_s
+        ages = np.array([t - self._birth.get(int(k), t) for k in ids])
+        return Tracks(t, snap.frame_index, np.concatenate([tracks.ids, ids]),
+                      np.concatenate([tracks.boxes, boxes]), np.concatenate([tracks.velocities, vel]),
+                      np.concatenate([tracks.states, np.full(len(ids), int(TrackState.COASTING), np.int8)]),
+                      np.concatenate([tracks.ages_s, ages]), self.source, self.camera_id)
+
+    def _coast(self, snap: FeatureSnapshot, reported: np.ndarray, image=None, present=frozenset()):
+        """``params.coast_s``: the identities to report although no cluster carries them now
+        (not in the paper, session 19).  A reported identity lost (see :meth:`_relink`) less than
+        ``coast_s`` ago, after it had been reported for at least ``coast_min_age_s``, is reported
+        at the box where the relink expects it (its last box carried by the camera's motion, or
+        its corners' directions projected through this frame's camera), when that box's centre
+        lies in the image and no more than ``coast_overlap`` of it lies in one of this frame's
+        reports (``reported``: the boat is then most likely in that report).  A coast that fails
+        one of these checks ends until the identity is found and lost again (a report that came
+        and went would swap identities with a neighbour's).  An identity in
+        ``present`` (reported now: a cluster identity back through the graph's label memory) is
+        not coasted.
+
+        With ``coast_check`` and the frame's ``image``, the box is grown to the object at that
+        place (:func:`grow_boxes`, from the middle half of the expected box as the core) and
+        reported only when the object stands out (contrast at least ``min_contrast``), was found
+        (the growing succeeded) and its area lies within ``coast_size_ratio`` of the expected
+        box's either way: a boat whose features dropped out is still seen, open water is not.
+        With ``coast_follow`` the grown box becomes the identity's expected box from then on, so
+        the report follows the boat's own motion (otherwise only the camera's motion moves it).
+
+        Returns ``(ids, boxes, velocities)``; the velocities are the identity's own velocity when
+        it was lost (px/s, 0 when unknown)."""
+        p = self.params
+        t = snap.t_s
+        cand = []
+        for k, (tl, lb, v) in self._lost.items():
+            born = self._birth.get(k)
+            if (k in present or t - tl > p.coast_s + 1e-9 or born is None
+                    or tl - born < p.coast_min_age_s - 1e-9 or self._coast_end.get(k) == tl):
+                continue
+            cand.append((k, np.asarray(lb, np.float64), np.zeros(2) if v is None else np.nan_to_num(v)))
+        empty = (np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros((0, 2)))
+        if not cand:
+            return empty
+        ids = np.array([c[0] for c in cand], np.int64)
+        lbs = np.stack([c[1] for c in cand])
+        vel = np.stack([c[2] for c in cand])
+        ok = np.all(np.isfinite(lbs), axis=1) & (lbs[:, 2] > 0) & (lbs[:, 3] > 0)
+        cx, cy = lbs[:, 0] + 0.5 * lbs[:, 2], lbs[:, 1] + 0.5 * lbs[:, 3]
+        if snap.shape is not None:
+            hh, ww = snap.shape
+            ok &= (cx >= 0) & (cx < ww) & (cy >= 0) & (cy < hh)
+        if len(reported) and p.coast_overlap < 1:
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            iw = (np.minimum(lbs[:, None, 0] + lbs[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                  - np.maximum(lbs[:, None, 0], r[None, :, 0]))
+            ih = (np.minimum(lbs[:, None, 1] + lbs[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                  - np.maximum(lbs[:, None, 1], r[None, :, 1]))
+            inside = np.maximum(iw, 0) * np.maximum(ih, 0) / np.maximum(lbs[:, 2] * lbs[:, 3], 1e-9)[:, None]
+            ok &= ~(inside.max(axis=1) > p.coast_overlap)
+        if p.coast_check and image is not None and ok.any():
+            img = np.asarray(image)
+            if img.dtype != np.uint8:
+                img = to_grey_u8(img)
+            sel = np.flatnonzero(ok)
+            b = lbs[sel]
+            cores = np.stack([b[:, 0] + 0.25 * b[:, 2], b[:, 1] + 0.25 * b[:, 3], 0.5 * b[:, 2], 0.5 * b[:, 3]],
+                             axis=1)
+            grown, contrast, found = grow_boxes(img, b, cores, grow=max(p.grow_box, 0.5),
+                                                peak_frac=p.grow_peak_frac, return_found=True,
+                                                wide_grow_px=p.grow_wide_px, waterline_frac=p.waterline_frac,
+                                                top_frac=p.top_frac)
+            ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
+            good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
+                    & (ratio >= 1.0 / p.coast_size_ratio))
+            ok[sel] = good
+            lbs[sel] = np.where(good[:, None], grown, b)
+            if p.coast_follow:
+                for j in np.flatnonzero(good):
+                    k = int(ids[sel[j]])
+                    tl, _, v = self._lost[k]
+                    self._lost[k] = (tl, grown[j].copy(), v)
+                    self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
+        for k in ids[~ok]:  # a coast that failed a check has ended: no report back and forth
+            self._coast_end[int(k)] = self._lost[int(k)][0]
+        if len(self._coast_end) > 2 * len(self._lost) + 16:  # bounded memory
+            self._coast_end = {k: v for k, v in self._coast_end.items() if k in self._lost}
+        if not ok.any():
+            return empty
+        return ids[ok], lbs[ok], vel[ok]
 
 
 def camera_at(camera, frame: Frame):
@@ -2362,5 +2482,5 @@ class StableFeatureTracker:
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
-            dets = dets.subset(keep)
+            dets = dets.subset(keep[:len(dets)])  # coasting tracks (appended last) have no detection
         return dets, tracks
