@@ -118,12 +118,16 @@ def test_the_boat_found_again_keeps_its_identity():
     assert tr.states.tolist() != [int(TrackState.COASTING)]
 
 
-def test_without_an_image_the_coast_is_not_checked():
-    c = FeatureClusterer(params(grow_box=0.0))
-    ident = seen(c)
-    tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), None)[1]
-    assert tr.ids.tolist() == [ident]
-    assert int(tr.states[0]) == int(TrackState.COASTING)
+def test_without_an_image_no_coast_unless_unchecked():
+    for check in (True, False):
+        c = FeatureClusterer(params(grow_box=0.0, coast_check=check))
+        ident = seen(c)
+        tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), None)[1]
+        if check:  # the sweep runs without frames: nothing to check the coast against
+            assert len(tr) == 0
+        else:
+            assert tr.ids.tolist() == [ident]
+            assert int(tr.states[0]) == int(TrackState.COASTING)
 
 
 def test_defaults():

@@ -2268,7 +2268,7 @@ class FeatureClusterer:
         ``present`` (reported now: a cluster identity back through the graph's label memory) is
         not coasted.
 
-        With ``coast_check`` and the frame's ``image``, the box is grown to the object at that
+        With ``coast_check`` (without the frame's ``image`` nothing is coasted then), the box is grown to the object at that
         place (:func:`grow_boxes`, from the middle half of the expected box as the core) and
         reported only when the object stands out (contrast at least ``min_contrast``), was found
         (the growing succeeded) and its area lies within ``coast_size_ratio`` of the expected
@@ -2306,6 +2306,8 @@ class FeatureClusterer:
                   - np.maximum(lbs[:, None, 1], r[None, :, 1]))
             inside = np.maximum(iw, 0) * np.maximum(ih, 0) / np.maximum(lbs[:, 2] * lbs[:, 3], 1e-9)[:, None]
             ok &= ~(inside.max(axis=1) > p.coast_overlap)
+        if p.coast_check and image is None:
+            ok[:] = False  # nothing to check against (e.g. the parameter sweep): no coast
         if p.coast_check and image is not None and ok.any():
             img = np.asarray(image)
             if img.dtype != np.uint8:
