@@ -133,3 +133,26 @@ def test_without_an_image_no_coast_unless_unchecked():
 def test_defaults():
     p = ClusterParams()
     assert (p.coast_s, p.coast_min_age_s, p.coast_check, p.coast_follow) == (15.0, 0.4, True, True)
+    assert (p.coast_overlap, p.coast_inside_big, p.coast_size_ratio) == (0.8, True, 2.0)
+
+
+def test_a_boat_inside_a_much_larger_report_is_still_coasted():
+    for big in (True, False):
+        # no hand-over and no merge of the two reports: the neighbour keeps its own identity
+        c = FeatureClusterer(params(coast_inside_big=big, grow_box=0.0, relink_overlap=0.0, merge_overlap=0.0))
+        for k in range(6):  # the boat from frame 0, a neighbour moving the other way from frame 3
+            xy, v, ids = [[102, 61], [110, 62]], [[5, 0], [5, 0]], [1, 2]
+            if k >= 3:
+                xy, v, ids = xy + [[85, 52], [127, 72]], v + [[-8, 0], [-8, 0]], ids + [7, 8]
+            _, tr = c.update(snap(xy, v, 0.1 * k, k, ids), sea(k))
+        assert len(tr) == 2
+        ident = int(tr.ids[np.argmin(tr.boxes[:, 2])])
+        # the boat's features drop out; the neighbour's report (its features' extent, x 85-127)
+        # covers the boat's box and is far larger than it: two objects in one report
+        _, tr = c.update(snap([[85, 52], [127, 72]], [[-8, 0], [-8, 0]], 0.6, 6, [7, 8]), sea(6))
+        co = tr.states == int(TrackState.COASTING)
+        assert (~co).sum() == 1 and ident not in tr.ids[~co].tolist()
+        if big:
+            assert tr.ids[co].tolist() == [ident]
+        else:
+            assert not co.any()

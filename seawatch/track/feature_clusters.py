@@ -1500,12 +1500,12 @@ class ClusterParams:
     1.4 it refuses little more than an inverted contrast (a dark object for a bright one); chosen
     on the 12 tuning sequences (71 -> 69 identity switches, mean METE 0.4703 -> 0.4701).
     Session 19: ``coast_s`` (0: off) with ``coast_min_age_s``, ``coast_check``, ``coast_follow``,
-    ``coast_size_ratio`` and ``coast_overlap``: a reported identity lost less than ``coast_s``
+    ``coast_size_ratio``, ``coast_overlap`` and ``coast_inside_big``: a reported identity lost less than ``coast_s``
     ago, after being reported for at least ``coast_min_age_s``, is still reported (state
     ``COASTING``) at the place the relink expects it, while the image still shows an object
     there (:meth:`FeatureClusterer._coast`).  On by default at 15 s, 0.4 s, with the check and
-    ``coast_follow``: on the 12 tuning sequences mean METE 0.4702 -> 0.4465, identity switches
-    69 -> 67 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting")."""
+    ``coast_follow``, overlap 0.8 with ``coast_inside_big``: on the 12 tuning sequences mean METE
+    0.4702 -> 0.4385, identity switches 69 -> 64 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting")."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1570,7 +1570,8 @@ class ClusterParams:
     coast_check: bool = True
     coast_follow: bool = True
     coast_size_ratio: float = 2.0
-    coast_overlap: float = 0.5
+    coast_overlap: float = 0.8
+    coast_inside_big: bool = True
 
 
 class FeatureClusterer:
@@ -1636,6 +1637,9 @@ class FeatureClusterer:
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
+        # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
+        # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
+        self.coast_log: collections.deque = collections.deque(maxlen=2000)
         # (time, identity, cluster, its box, template part, level part, refused) of each pair the
         # appearance check looked at (relink_appearance; the last 1000, for diagnosis)
         self.relink_log: collections.deque = collections.deque(maxlen=1000)
@@ -2262,7 +2266,9 @@ class FeatureClusterer:
         at the box where the relink expects it (its last box carried by the camera's motion, or
         its corners' directions projected through this frame's camera), when that box's centre
         lies in the image and no more than ``coast_overlap`` of it lies in one of this frame's
-        reports (``reported``: the boat is then most likely in that report).  A coast that fails
+        reports (``reported``: the boat is then most likely in that report); with
+        ``coast_inside_big`` a report more than ``coast_size_ratio`` times the box's area does not
+        count (it holds more than this boat: a still boat swallowed by a neighbour's report).  A coast that fails
         one of these checks ends until the identity is found and lost again (a report that came
         and went would swap identities with a neighbour's).  An identity in
         ``present`` (reported now: a cluster identity back through the graph's label memory) is
@@ -2298,6 +2304,7 @@ class FeatureClusterer:
         if snap.shape is not None:
             hh, ww = snap.shape
             ok &= (cx >= 0) & (cx < ww) & (cy >= 0) & (cy < hh)
+        why = np.where(ok, "reported", "outside").astype(object)
         if len(reported) and p.coast_overlap < 1:
             r = np.asarray(reported, np.float64).reshape(-1, 4)
             iw = (np.minimum(lbs[:, None, 0] + lbs[:, None, 2], r[None, :, 0] + r[None, :, 2])
@@ -2305,9 +2312,15 @@ class FeatureClusterer:
             ih = (np.minimum(lbs[:, None, 1] + lbs[:, None, 3], r[None, :, 1] + r[None, :, 3])
                   - np.maximum(lbs[:, None, 1], r[None, :, 1]))
             inside = np.maximum(iw, 0) * np.maximum(ih, 0) / np.maximum(lbs[:, 2] * lbs[:, 3], 1e-9)[:, None]
-            ok &= ~(inside.max(axis=1) > p.coast_overlap)
+            if p.coast_inside_big:  # a report much larger than the box holds two objects: not this one alone
+                big = r[None, :, 2] * r[None, :, 3] > p.coast_size_ratio * (lbs[:, 2] * lbs[:, 3])[:, None]
+                inside = np.where(big, 0.0, inside)
+            over = ok & (inside.max(axis=1) > p.coast_overlap)
+            why[over] = "overlap"
+            ok &= ~over
         if p.coast_check and image is None:
             ok[:] = False  # nothing to check against (e.g. the parameter sweep): no coast
+            why[:] = "no image"
         if p.coast_check and image is not None and ok.any():
             img = np.asarray(image)
             if img.dtype != np.uint8:
@@ -2324,6 +2337,8 @@ class FeatureClusterer:
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
             ok[sel] = good
+            why[sel] = np.where(~found, "not found", np.where(~(contrast >= p.min_contrast), "contrast",
+                                                              np.where(good, "reported", "size")))
             lbs[sel] = np.where(good[:, None], grown, b)
             if p.coast_follow:
                 for j in np.flatnonzero(good):
@@ -2331,6 +2346,7 @@ class FeatureClusterer:
                     tl, _, v = self._lost[k]
                     self._lost[k] = (tl, grown[j].copy(), v)
                     self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
+        self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
         for k in ids[~ok]:  # a coast that failed a check has ended: no report back and forth
             self._coast_end[int(k)] = self._lost[int(k)][0]
         if len(self._coast_end) > 2 * len(self._lost) + 16:  # bounded memory
