@@ -1417,6 +1417,29 @@ def appearance_distance(a, b, template_weight: float = 0.0) -> float:
     return dc + template_weight * dt
 
 
+def _carry_box(box, hmg):
+    """Box ``x, y, w, h`` carried by the homography ``hmg`` (its two corners); the box itself when
+    a corner maps to infinity."""
+    c = np.array([[box[0], box[1]], [box[0] + box[2], box[1] + box[3]]], np.float64)
+    q = c @ hmg[:2, :2].T + hmg[:2, 2]
+    w = c @ hmg[2, :2] + hmg[2, 2]
+    if np.any(np.abs(w) < 1e-12):
+        return np.asarray(box, np.float64)
+    q = q / w[:, None]
+    return np.array([q[0, 0], q[0, 1], q[1, 0] - q[0, 0], q[1, 1] - q[0, 1]])
+
+
+def _keep_edge(a0, a1, size, last):
+    """The interval ``[a0, a1]`` cut to ``size``: keeping the end that lies nearer to its place in
+    ``last`` (``(l0, l1)``, the interval of the frame before), or its centre when ``last`` is None."""
+    if last is None:
+        m = 0.5 * (a0 + a1)
+        return m - 0.5 * size, m + 0.5 * size
+    if abs(a0 - last[0]) <= abs(a1 - last[1]):
+        return a0, a0 + size
+    return a1 - size, a1
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
@@ -1550,6 +1573,9 @@ class ClusterParams:
     relink_appearance: bool = True
     relink_appearance_max: float = 1.4
     relink_appearance_tpl: float = 0.0
+    size_filter_s: float = 0.0
+    size_filter_k: float = 1.5
+    size_filter_min_n: int = 5
 
 
 class FeatureClusterer:
@@ -1584,6 +1610,14 @@ class FeatureClusterer:
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
         self._relink_reset()
+        self._size_reset()
+
+    def _size_reset(self) -> None:
+        """The state of the box size filter (``params.size_filter_s``, see :meth:`_size_filter`)."""
+        self._size_hist: dict = {}  # cluster identity -> deque of (time, w, h) at the reference scale
+        self._size_last: dict = {}  # cluster identity -> its box (after the filter) in the last update
+        self._size_fi = -1  # frame index of the last update
+        self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
 
     def _relink_reset(self) -> None:
         self._alias: dict[int, int] = {}  # cluster identity -> reported identity
@@ -1622,6 +1656,62 @@ class FeatureClusterer:
         self.graph.reset()
         self.noise_px_s = float("nan")
         self._relink_reset()
+        self._size_reset()
+
+    def _size_filter(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Each cluster's box held to the size it had over the last ``params.size_filter_s``
+        seconds (not in the paper; session 19): where the box is wider (taller) than
+        ``size_filter_k`` times the median width (height) of the cluster's boxes in that time, it
+        is cut to that median width (height), keeping the edge that moved less since the
+        cluster's box of the frame before (carried by the camera motion); without that box, the
+        box keeps its centre.  The sizes are compared at one scale (the camera's zoom is followed
+        through the features' homographies); the history holds the boxes as measured (before the
+        filter), so a real change of size (a boat coming nearer) is followed after about half the
+        time.  At least ``size_filter_min_n`` boxes must be in the history.  A box grown over a
+        wake, a reflection or the coast in a few frames goes back to the boat's size."""
+        p = self.params
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
+        ok_h = hmg.shape == (3, 3) and bool(np.all(np.isfinite(hmg)))
+        if ok_h:
+            det = abs(float(np.linalg.det(hmg[:2, :2])))
+            if det > 0:
+                self._size_scale *= float(np.sqrt(det))
+        if not np.isfinite(self._size_scale) or self._size_scale <= 0:
+            self._size_scale = 1.0
+            self._size_hist = {}
+        sc = self._size_scale
+        last = self._size_last if (self._size_fi >= 0 and 0 < fi - self._size_fi <= 2) else {}
+        out = np.array(boxes, np.float64, copy=True)
+        new_last = {}
+        for i, c in enumerate(np.asarray(cids).tolist()):
+            x, y, w, h = out[i]
+            hist = self._size_hist.get(c)
+            if hist is None:
+                hist = self._size_hist[c] = collections.deque()
+            while hist and hist[0][0] < t - p.size_filter_s:
+                hist.popleft()
+            if len(hist) >= p.size_filter_min_n and np.isfinite(w) and np.isfinite(h):
+                arr = np.asarray(hist, np.float64)
+                mw, mh = float(np.median(arr[:, 1])) * sc, float(np.median(arr[:, 2])) * sc
+                lb = last.get(c)
+                if lb is not None and ok_h:
+                    lb = _carry_box(lb, hmg)
+                nx0, ny0, nx1, ny1 = x, y, x + w, y + h
+                if w > p.size_filter_k * mw:
+                    nx0, nx1 = _keep_edge(nx0, nx1, mw, None if lb is None else (lb[0], lb[0] + lb[2]))
+                if h > p.size_filter_k * mh:
+                    ny0, ny1 = _keep_edge(ny0, ny1, mh, None if lb is None else (lb[1], lb[1] + lb[3]))
+                out[i] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
+            if np.isfinite(w) and np.isfinite(h):
+                hist.append((t, w / sc, h / sc))
+            new_last[c] = out[i].copy()
+        # forget the clusters not seen within the filter's time
+        for c in [c for c, hq in self._size_hist.items() if not hq or hq[-1][0] < t - p.size_filter_s]:
+            del self._size_hist[c]
+        self._size_last = new_last
+        self._size_fi = fi
+        return out
 
     def _box_anchor(self, snap, cids, k, xy):
         """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
@@ -2145,6 +2235,8 @@ class FeatureClusterer:
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo)
+        if p.size_filter_s > 0:
+            boxes = self._size_filter(snap, cids, boxes)
         if p.box_keep_last:
             self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
             self._cluster_boxes_t = fi

@@ -1,0 +1,98 @@
+"""Session 19: the box fitted to the boat (issue #8): the box size filter."""
+
+import numpy as np
+import pytest
+
+from _feature_snap import snap
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _keep_edge
+
+# a boat of four features moving 20 px/s; with the default pad (the keypoint's radius, 2 px)
+# its box is x 98..128, y 58..66
+BOAT = [[100, 60], [110, 62], [120, 61], [126, 64]]
+VEL = [20.0, 0.0]
+
+
+def run(params, extra_at=None, extra=(), n=12, scale=1.0):
+    """Boxes of the one reported cluster over ``n`` frames at 10 frames/s; from frame ``extra_at``
+    on, the features ``extra`` join it (moving alike). ``scale``: the camera zooms by this factor
+    per frame about (110, 62) (features and homography alike)."""
+    cl = FeatureClusterer(params)
+    out = []
+    s = 1.0
+    for fi in range(n):
+        xy = [list(p) for p in BOAT]
+        ids = list(range(10, 10 + len(BOAT)))
+        if extra_at is not None and fi >= extra_at:
+            xy += [list(p) for p in extra]
+            ids += list(range(50, 50 + len(extra)))
+        h = np.eye(3)
+        if fi > 0 and scale != 1.0:
+            s *= scale
+            h = np.array([[scale, 0, 110 * (1 - scale)], [0, scale, 62 * (1 - scale)], [0, 0, 1.0]])
+        c = np.array([110.0, 62.0])
+        xy = (np.asarray(xy, float) - c) * s + c
+        _, tr = cl.update(snap(xy, [VEL] * len(xy), 0.1 * fi, fi, ids=ids, h=h, shape=(400, 400)))
+        assert len(tr) == 1
+        out.append(tr.boxes[0].copy())
+    return np.array(out)
+
+
+P = dict(confirm_s=0.0, relink_s=0.0)
+
+
+def test_size_filter_is_off_by_default_and_off_changes_nothing():
+    assert ClusterParams().size_filter_s == 0.0
+    extra = [[60, 63]]  # a feature 40 px behind the boat (its wake) joins in frame 8
+    off = run(ClusterParams(**P), 8, extra)
+    assert off[-1].tolist() == pytest.approx([58, 58, 70, 8])  # the box takes it in
+    base = run(ClusterParams(**P))
+    assert off[:8].tolist() == base[:8].tolist()
+
+
+def test_a_box_widened_in_a_few_frames_goes_back_to_its_width_keeping_the_edge_that_stayed():
+    extra = [[60, 63]]
+    on = run(ClusterParams(size_filter_s=1.0, size_filter_k=1.5, **P), 8, extra)
+    # frames 0-7 are the boat alone, unchanged
+    assert on[:8].tolist() == run(ClusterParams(**P))[:8].tolist()
+    # from frame 8 the wide box (70 px) is cut to the median width (30 px), keeping the right
+    # (leading) edge, which did not move; the height is not touched
+    for b in on[8:]:
+        assert b.tolist() == pytest.approx([98, 58, 30, 8])
+
+
+def test_a_box_raised_in_a_few_frames_keeps_its_bottom():
+    extra = [[112, 30]]  # a feature of the coast 30 px above the deck joins in frame 8
+    off = run(ClusterParams(**P), 8, extra)
+    assert off[-1][1] == pytest.approx(28)
+    on = run(ClusterParams(size_filter_s=1.0, **P), 8, extra)
+    # the bottom (66) stays, the height goes back to 8 (the median of the last second)
+    for b in on[8:]:
+        assert b[1] + b[3] == pytest.approx(off[-1][1] + off[-1][3])
+        assert b[3] == pytest.approx(8.0)
+        assert b[2] == pytest.approx(30.0)
+
+
+def test_a_lasting_change_of_size_is_followed():
+    # the extra feature stays: after about half the filter's time the median is the new width
+    extra = [[60, 63]]
+    on = run(ClusterParams(size_filter_s=1.0, **P), 4, extra, n=20)
+    assert on[5][2] == pytest.approx(30)  # just after the change: cut
+    assert on[-1].tolist() == pytest.approx([58, 58, 70, 8])  # a second later: followed
+
+
+def test_zoom_does_not_count_as_a_change_of_size():
+    # the camera zooms in by 10 % a frame (x2.4 over the run): the box grows with it and the
+    # filter (which compares sizes at one scale) leaves it alone
+    on = run(ClusterParams(size_filter_s=1.0, size_filter_k=1.2, **P), n=10, scale=1.1)
+    off = run(ClusterParams(**P), n=10, scale=1.1)
+    np.testing.assert_allclose(on, off)
+    assert off[-1][2] > 2.0 * off[0][2]
+    # without following the zoom, the last box would be cut: it is wider than 1.2 times the
+    # median width over the last second in pixels
+    assert off[-1][2] > 1.2 * np.median(off[:-1, 2])
+
+
+def test_keep_edge():
+    assert _keep_edge(0.0, 50.0, 10.0, None) == (20.0, 30.0)
+    assert _keep_edge(0.0, 50.0, 10.0, (30.0, 50.5)) == (40.0, 50.0)  # the right end stayed
+    assert _keep_edge(0.0, 50.0, 10.0, (0.5, 20.0)) == (0.0, 10.0)  # the left end stayed
