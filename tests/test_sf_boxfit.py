@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from _feature_snap import snap
-from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _keep_edge
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _keep_edge, grow_boxes
 
 # a boat of four features moving 20 px/s; with the default pad (the keypoint's radius, 2 px)
 # its box is x 98..128, y 58..66
@@ -96,3 +96,44 @@ def test_keep_edge():
     assert _keep_edge(0.0, 50.0, 10.0, None) == (20.0, 30.0)
     assert _keep_edge(0.0, 50.0, 10.0, (30.0, 50.5)) == (40.0, 50.0)  # the right end stayed
     assert _keep_edge(0.0, 50.0, 10.0, (0.5, 20.0)) == (0.0, 10.0)  # the left end stayed
+
+
+def small_boat_with_slanted_wake(seed=0):
+    """Grey sea with a small dark hull (x 150-165, y 60-67) and a thin line of foam (2 px thick)
+    running from its stern 50 px to the left and 10 px down (a Kelvin arm seen at a slant)."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 260))
+    img[60:68, 150:166] = 30.0  # hull
+    for k in range(50):  # the arm: from (149, 66) to (100, 76)
+        x = 149 - k
+        y = 66 + int(round(k * 10 / 50))
+        img[y:y + 2, x] = 200.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_wake_cut_by_thickness_cuts_a_slanted_arm_that_the_height_rule_keeps():
+    img = small_boat_with_slanted_wake()
+    core = np.array([[120.0, 62.0, 44.0, 10.0]])  # features on the hull and on the arm near it
+    kw = dict(grow=1.0, waterline_frac=0.0, wide_grow_px=120.0, wake_frac=0.3, trail=np.array([-1]))
+    height = grow_boxes(img, core, core, **kw)
+    assert height[0][0] <= 101  # the arm's columns reach the object's bottom: kept
+    thick = grow_boxes(img, core, core, wake_thick=True, **kw)
+    assert thick[0][0] == pytest.approx(150) and thick[0][0] + thick[0][2] == pytest.approx(166)
+    # on the leading side nothing is cut
+    lead = grow_boxes(img, core, core, wake_thick=True, **dict(kw, trail=np.array([1])))
+    assert lead[0].tolist() == pytest.approx(height[0].tolist())
+
+
+def test_wake_cut_by_thickness_keeps_a_hull_beside_a_wheelhouse():
+    # a tug: hull 40 x 6 with a wheelhouse 10 px wide and 8 px tall at its stern; moving left
+    # (trail +1 would cut the right end): the hull's columns are 6 px thick, the house's 14,
+    # above 0.3 x 14
+    rng = np.random.default_rng(3)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 260))
+    img[66:72, 100:140] = 30.0
+    img[58:66, 128:138] = 50.0
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    core = np.array([[104.0, 60.0, 32.0, 10.0]])
+    for trail in (-1, 1):
+        out = grow_boxes(img, core, core, grow=1.5, wake_frac=0.3, trail=np.array([trail]), wake_thick=True)
+        assert out[0].tolist() == pytest.approx([100, 58, 40, 14])

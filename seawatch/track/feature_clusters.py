@@ -854,7 +854,7 @@ def grow_boxes(
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
     wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
-    cut_core_frac: float = 0.0, cut_core_undo: bool = False,
+    cut_core_frac: float = 0.0, cut_core_undo: bool = False, wake_thick: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -917,6 +917,11 @@ def grow_boxes(
         darker hull under a bright cabin, or a low stern, than a reflection or a wake.
     cut_core_undo : bool
         See ``cut_core_frac``.
+    wake_thick : bool
+        The wake cut measures each column by its number of foreground pixels (its thickness)
+        instead of its height from its top foreground pixel to the object's bottom (not in the
+        paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
+        boat) is a thin line whose columns' heights to the object's bottom are large.
 
     Returns
     -------
@@ -940,14 +945,14 @@ def grow_boxes(
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                            int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
+                                            int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
             # coastline still reaches its edges)
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
+                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick)
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -956,7 +961,8 @@ def grow_boxes(
 
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
-              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False):
+              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
+              wake_thick=False):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1008,7 +1014,8 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     if waterline_frac > 0 or wake_frac > 0:
         core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
         nx0, ny0, nx1, ny1 = _trim_object(dev, obj, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
-                                          waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
+                                          waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo,
+                                          wake_thick)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
         ny0 = y0 + _extend_top(dev, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
@@ -1045,14 +1052,21 @@ def _last_strong_row(dev, y0, y1, x0, x1, frac):
 
 
 @nb.njit(cache=True, nogil=True)
-def _tall_columns(m, frac):
+def _tall_columns(m, frac, thick=False):
     """For the object's mask ``m`` (rows, cols): each column's height (from its top pixel to the
     bottom, 0 without one), and the first and last column whose height is at least ``frac``
     times the 75th percentile of the positive heights (``np.percentile``'s float64 value; 0 when
-    none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`."""
+    none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`.
+    With ``thick``: each column's number of foreground pixels instead of its height, against
+    ``frac`` times the largest of them."""
     rows, cols = m.shape
     ext = np.zeros(cols, np.int64)
     for c in range(cols):
+        if thick:  # the column's thickness: its foreground pixels
+            for r in range(rows):
+                if m[r, c]:
+                    ext[c] += 1
+            continue
         for r in range(rows):
             if m[r, c]:
                 ext[c] = rows - r
@@ -1060,7 +1074,9 @@ def _tall_columns(m, frac):
     pos = np.sort(ext[ext > 0])
     ref = 0.0
     n = len(pos)
-    if n:
+    if thick and n:
+        ref = float(pos[n - 1])  # the thickest column (a slanted wake may be most of the columns)
+    elif n:
         vi = (n - 1) * 0.75
         if vi >= n - 1:
             ref = float(pos[n - 1])
@@ -1080,7 +1096,8 @@ def _tall_columns(m, frac):
     return first, last
 
 
-def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False):
+def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False,
+                 thick=False):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
@@ -1106,7 +1123,7 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
         m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
         # each column's height: from its top foreground pixel down to the object's bottom; the
         # first and last column at least wake_frac times their 75th percentile tall (-1: none)
-        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac))
+        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac), bool(thick))
         if t0 >= 0:
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
             run = max(3, 0.25 * (x1 - x0))
@@ -1576,6 +1593,10 @@ class ClusterParams:
     size_filter_s: float = 0.0
     size_filter_k: float = 1.5
     size_filter_min_n: int = 5
+    size_filter_width: bool = True
+    size_filter_grown: bool = False
+    size_filter_height: bool = True
+    wake_thick: bool = False
 
 
 class FeatureClusterer:
@@ -1658,7 +1679,8 @@ class FeatureClusterer:
         self._relink_reset()
         self._size_reset()
 
-    def _size_filter(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    def _size_filter(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
+                     grown: np.ndarray | None = None) -> np.ndarray:
         """Each cluster's box held to the size it had over the last ``params.size_filter_s``
         seconds (not in the paper; session 19): where the box is wider (taller) than
         ``size_filter_k`` times the median width (height) of the cluster's boxes in that time, it
@@ -1668,7 +1690,11 @@ class FeatureClusterer:
         through the features' homographies); the history holds the boxes as measured (before the
         filter), so a real change of size (a boat coming nearer) is followed after about half the
         time.  At least ``size_filter_min_n`` boxes must be in the history.  A box grown over a
-        wake, a reflection or the coast in a few frames goes back to the boat's size."""
+        wake, a reflection or the coast in a few frames goes back to the boat's size.  With
+        ``size_filter_width`` (``size_filter_height``) False the width (height) is not held.  ``grown`` (bool per box, with
+        ``size_filter_grown``): only the boxes that the growing reached the object with are
+        held and enter the history (a box left at its features' extent, where the growing found
+        nothing, is neither cut nor a reference)."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -1691,19 +1717,20 @@ class FeatureClusterer:
                 hist = self._size_hist[c] = collections.deque()
             while hist and hist[0][0] < t - p.size_filter_s:
                 hist.popleft()
-            if len(hist) >= p.size_filter_min_n and np.isfinite(w) and np.isfinite(h):
+            use = grown is None or bool(grown[i])
+            if use and len(hist) >= p.size_filter_min_n and np.isfinite(w) and np.isfinite(h):
                 arr = np.asarray(hist, np.float64)
                 mw, mh = float(np.median(arr[:, 1])) * sc, float(np.median(arr[:, 2])) * sc
                 lb = last.get(c)
                 if lb is not None and ok_h:
                     lb = _carry_box(lb, hmg)
                 nx0, ny0, nx1, ny1 = x, y, x + w, y + h
-                if w > p.size_filter_k * mw:
+                if p.size_filter_width and w > p.size_filter_k * mw:
                     nx0, nx1 = _keep_edge(nx0, nx1, mw, None if lb is None else (lb[0], lb[0] + lb[2]))
-                if h > p.size_filter_k * mh:
+                if p.size_filter_height and h > p.size_filter_k * mh:
                     ny0, ny1 = _keep_edge(ny0, ny1, mh, None if lb is None else (lb[1], lb[1] + lb[3]))
                 out[i] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
-            if np.isfinite(w) and np.isfinite(h):
+            if use and np.isfinite(w) and np.isfinite(h):
                 hist.append((t, w / sc, h / sc))
             new_last[c] = out[i].copy()
         # forget the clusters not seen within the filter's time
@@ -2230,13 +2257,17 @@ class FeatureClusterer:
                 np.add.at(vx, kb[okv], fvb[okv, 0])
                 vx /= np.maximum(np.bincount(kb[okv], minlength=n), 1)
                 trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
+            pre_grow = boxes
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
-                cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo)
+                cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick)
         if p.size_filter_s > 0:
-            boxes = self._size_filter(snap, cids, boxes)
+            grown = None
+            if p.size_filter_grown and image is not None and p.grow_box > 0:
+                grown = np.any(boxes != pre_grow, axis=1)  # the boxes that the growing changed
+            boxes = self._size_filter(snap, cids, boxes, grown)
         if p.box_keep_last:
             self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
             self._cluster_boxes_t = fi
