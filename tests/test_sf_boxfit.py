@@ -137,3 +137,37 @@ def test_wake_cut_by_thickness_keeps_a_hull_beside_a_wheelhouse():
     for trail in (-1, 1):
         out = grow_boxes(img, core, core, grow=1.5, wake_frac=0.3, trail=np.array([trail]), wake_thick=True)
         assert out[0].tolist() == pytest.approx([100, 58, 40, 14])
+
+
+def run_wake(params, n=20, pan=0.0):
+    """A slow boat (four features moving 5 px/s to the right) and three features of its wake that
+    stay where they are (their measured velocity says 2 px/s: too noisy to tell them apart), at
+    10 frames/s; the camera pans ``pan`` px a frame (features and homography alike). Boxes of the
+    one reported cluster."""
+    cl = FeatureClusterer(params)
+    out = []
+    for fi in range(n):
+        dx = 0.5 * fi
+        boat = [[100 + dx, 60], [106 + dx, 62], [112 + dx, 61], [116 + dx, 63]]
+        wake = [[80, 64], [88, 63], [94, 64]]
+        xy = np.array(boat + wake, float) - [pan * fi, 0.0]
+        vel = [[5.0, 0.0]] * 4 + [[2.0, 0.0]] * 3
+        h = np.array([[1, 0, -pan], [0, 1, 0], [0, 0, 1.0]]) if fi else np.eye(3)
+        _, tr = cl.update(snap(xy, vel, 0.1 * fi, fi, ids=list(range(10, 17)), h=h, shape=(400, 400)))
+        assert len(tr) == 1
+        out.append(tr.boxes[0] + [pan * fi, 0, 0, 0])  # in the scene's pixels
+    return np.array(out)
+
+
+def test_members_that_stay_behind_leave_the_box():
+    base = dict(confirm_s=0.0, relink_s=0.0, box_dv_px_s=0.0)
+    off = run_wake(ClusterParams(**base))
+    assert off[-1][0] == pytest.approx(78)  # the wake's features are in the box
+    assert ClusterParams().box_disp_s == 0.0
+    on = run_wake(ClusterParams(box_disp_s=1.0, **base))
+    # the first half second (no displacement known yet) is as before
+    np.testing.assert_allclose(on[:5], off[:5])
+    # after a second the boat's features have moved 5 px and the wake's 0: the box is the boat's
+    assert on[-1].tolist() == pytest.approx([98 + 9.5, 58, 20, 7])
+    # the same through a pan of 3 px a frame (positions followed through the homographies)
+    np.testing.assert_allclose(run_wake(ClusterParams(box_disp_s=1.0, **base), pan=3.0)[-1], on[-1], atol=1e-6)

@@ -1597,6 +1597,9 @@ class ClusterParams:
     size_filter_grown: bool = False
     size_filter_height: bool = True
     wake_thick: bool = False
+    box_disp_s: float = 0.0
+    box_disp_frac: float = 0.5
+    box_disp_min_px: float = 4.0
 
 
 class FeatureClusterer:
@@ -1639,6 +1642,9 @@ class FeatureClusterer:
         self._size_last: dict = {}  # cluster identity -> its box (after the filter) in the last update
         self._size_fi = -1  # frame index of the last update
         self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
+        self._disp_ring: collections.deque = collections.deque()  # (time, slots, ids, scene positions) per frame
+        self._disp_c = np.eye(3)  # this frame's image -> the scene reference (box_disp_s)
+        self._disp_fi = -1  # frame index of the last update
 
     def _relink_reset(self) -> None:
         self._alias: dict[int, int] = {}  # cluster identity -> reported identity
@@ -1739,6 +1745,69 @@ class FeatureClusterer:
         self._size_last = new_last
         self._size_fi = fi
         return out
+
+    def _disp_members(self, snap: FeatureSnapshot, m: np.ndarray, k: np.ndarray, n: int,
+                      inb: np.ndarray | None) -> np.ndarray:
+        """Members (``m`` the snapshot's features in a cluster, ``k`` their cluster index) that
+        moved with their cluster over the last ``params.box_disp_s`` seconds (not in the paper;
+        session 19).  Each feature's position is followed in the scene (the image positions carried
+        back to the first frame through the features' homographies); its displacement over that
+        time is compared with the median displacement of its cluster's box members (``inb``, or all
+        members): where that median is at least ``box_disp_min_px`` long, a member whose
+        displacement along it is under ``box_disp_frac`` of it stays out of the box, unless fewer
+        than two would be left.  Foam of a wake and a coast stay where they are while the boat's
+        features move on, however slowly (their velocities over 0.6 s are too noisy to tell)."""
+        p = self.params
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
+        ok_h = hmg.shape == (3, 3) and bool(np.all(np.isfinite(hmg)))
+        if ok_h and self._disp_fi >= 0 and fi == self._disp_fi + 1:
+            try:
+                self._disp_c = self._disp_c @ np.linalg.inv(hmg)
+            except np.linalg.LinAlgError:
+                ok_h = False
+        if not ok_h or self._disp_fi < 0 or fi != self._disp_fi + 1 or not np.all(np.isfinite(self._disp_c)):
+            self._disp_c = np.eye(3)  # a new reference: nothing to compare with yet
+            self._disp_ring.clear()
+        self._disp_fi = fi
+        c = self._disp_c
+        xy = np.asarray(snap.xy, np.float64)
+        hw = xy @ c[2, :2] + c[2, 2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sp = (xy @ c[:2, :2].T + c[:2, 2]) / hw[:, None]
+        slots = np.asarray(snap.slots, np.int64)
+        ids = np.asarray(snap.ids, np.int64)
+        ring = self._disp_ring
+        ring.append((t, slots, ids, sp))
+        while len(ring) > 1 and ring[1][0] <= t - p.box_disp_s:
+            ring.popleft()
+        keep = np.ones(int(m.sum()), bool)
+        t0, s0, i0, p0 = ring[0]
+        if t - t0 < 0.5 * p.box_disp_s or len(slots) == 0:
+            return keep
+        size = int(max(slots.max(), s0.max() if len(s0) else 0)) + 1
+        old = np.full((size, 2), np.nan)
+        old_id = np.full(size, -1, np.int64)
+        old[s0] = p0
+        old_id[s0] = i0
+        d = sp - old[slots]
+        d[old_id[slots] != ids] = np.nan
+        dm = d[m]
+        sel = np.ones(len(k), bool) if inb is None else inb
+        okd = np.isfinite(dm).all(axis=1)
+        for c_ in np.unique(k[sel & okd]):
+            mem = np.flatnonzero((k == c_) & sel & okd)
+            if len(mem) < 3:
+                continue
+            med = np.array([np.median(dm[mem, 0]), np.median(dm[mem, 1])])
+            L = float(np.hypot(*med))
+            if L < p.box_disp_min_px:
+                continue
+            along = dm[mem] @ (med / L)
+            out = along < p.box_disp_frac * L
+            if len(mem) - int(out.sum()) >= 2:
+                keep[mem[out]] = False
+        return keep
 
     def _box_anchor(self, snap, cids, k, xy):
         """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
@@ -2217,6 +2286,13 @@ class FeatureClusterer:
                 dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
             anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
             inb = _box_members(k, fv, n, dv, anchor)
+        else:
+            inb = None
+        if p.box_disp_s > 0:
+            # the box is drawn around the members that moved with the cluster over box_disp_s
+            keep = self._disp_members(snap, m, k, n, inb)
+            inb = keep if inb is None else inb & keep
+        if inb is not None:
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
             kb, xyb, rb = k, xy, r
@@ -2251,7 +2327,7 @@ class FeatureClusterer:
                 # a wake trails behind a boat moving across the image (relative to the scene):
                 # the box members' mean velocity
                 fvb = member_velocity()
-                fvb = fvb[inb] if p.box_dv_px_s > 0 else fvb
+                fvb = fvb[inb] if inb is not None else fvb
                 okv = np.isfinite(fvb).all(axis=1)
                 vx = np.zeros(n)
                 np.add.at(vx, kb[okv], fvb[okv, 0])
