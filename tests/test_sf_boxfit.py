@@ -161,13 +161,16 @@ def run_wake(params, n=20, pan=0.0):
 
 def test_members_that_stay_behind_leave_the_box():
     base = dict(confirm_s=0.0, relink_s=0.0, box_dv_px_s=0.0)
-    off = run_wake(ClusterParams(**base))
+    off = run_wake(ClusterParams(box_disp_s=0.0, **base))
     assert off[-1][0] == pytest.approx(78)  # the wake's features are in the box
-    assert ClusterParams().box_disp_s == 0.0
-    on = run_wake(ClusterParams(box_disp_s=1.0, **base))
+    assert ClusterParams().box_disp_s == 1.0 and ClusterParams(box_disp_s=0.0).box_disp_s == 0.0
+    on = run_wake(ClusterParams(**base))  # the default: 1 s
     # the first half second (no displacement known yet) is as before
     np.testing.assert_allclose(on[:5], off[:5])
     # after a second the boat's features have moved 5 px and the wake's 0: the box is the boat's
     assert on[-1].tolist() == pytest.approx([98 + 9.5, 58, 20, 7])
     # the same through a pan of 3 px a frame (positions followed through the homographies)
-    np.testing.assert_allclose(run_wake(ClusterParams(box_disp_s=1.0, **base), pan=3.0)[-1], on[-1], atol=1e-6)
+    np.testing.assert_allclose(run_wake(ClusterParams(**base), pan=3.0)[-1], on[-1], atol=1e-6)
+    # a boat slower than the floor (2 px over the second) is left alone
+    slow = run_wake(ClusterParams(box_disp_min_px=6.0, **base))
+    np.testing.assert_allclose(slow, off)

@@ -1530,7 +1530,16 @@ class ClusterParams:
     surroundings, per channel, relative to the stronger one; plus ``relink_appearance_tpl`` (0)
     times a 16x8 contrast template's part) above ``relink_appearance_max`` refuses the pair.  At
     1.4 it refuses little more than an inverted contrast (a dark object for a bright one); chosen
-    on the 12 tuning sequences (71 -> 69 identity switches, mean METE 0.4703 -> 0.4701)."""
+    on the 12 tuning sequences (71 -> 69 identity switches, mean METE 0.4703 -> 0.4701).
+    Session 19 (the box fitted to the boat): ``box_disp_s`` (1 s; 0: off) with ``box_disp_frac``
+    (0.5) and ``box_disp_min_px`` (2 px): a box member whose displacement in the scene over the
+    last second, along its cluster's median displacement, is under half of it stays out of the
+    box (the foam of a wake, the coast; see :meth:`FeatureClusterer._disp_members`); on the 12
+    tuning sequences mean METE 0.4702 -> 0.4633, identity switches 69 -> 70.  Tried and left
+    off: ``size_filter_s`` (0: off) with ``size_filter_k`` (1.5), ``size_filter_min_n`` (5),
+    ``size_filter_width``, ``size_filter_height`` and ``size_filter_grown`` (a cluster's box held
+    to its median size over the last ``size_filter_s``; see :meth:`FeatureClusterer._size_filter`;
+    best 0.4673), and ``wake_thick`` (False: the wake cut by column thickness; no gain)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1597,9 +1606,9 @@ class ClusterParams:
     size_filter_grown: bool = False
     size_filter_height: bool = True
     wake_thick: bool = False
-    box_disp_s: float = 0.0
+    box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
-    box_disp_min_px: float = 4.0
+    box_disp_min_px: float = 2.0
 
 
 class FeatureClusterer:
