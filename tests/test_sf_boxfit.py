@@ -174,3 +174,29 @@ def test_members_that_stay_behind_leave_the_box():
     # a boat slower than the floor (2 px over the second) is left alone
     slow = run_wake(ClusterParams(box_disp_min_px=6.0, **base))
     np.testing.assert_allclose(slow, off)
+
+
+def test_members_that_stay_behind_leave_the_box_when_they_are_the_majority_with_a_quantile():
+    # six features of foam behind three of the boat: the members' median displacement is the
+    # foam's (0), so the default leaves the box as it is; the median of the farther half is the boat's
+    cl_kw = dict(confirm_s=0.0, relink_s=0.0, box_dv_px_s=0.0)
+
+    def boxes(params):
+        cl = FeatureClusterer(params)
+        out = []
+        for fi in range(20):
+            dx = 0.5 * fi
+            boat = [[100 + dx, 60], [106 + dx, 62], [112 + dx, 61]]
+            foam = [[70, 64], [76, 63], [82, 64], [88, 63], [94, 64], [97, 62]]
+            vel = [[5.0, 0.0]] * 3 + [[2.0, 0.0]] * 6
+            _, tr = cl.update(snap(np.array(boat + foam, float), vel, 0.1 * fi, fi, ids=list(range(10, 19)),
+                                   shape=(400, 400)))
+            assert len(tr) == 1
+            out.append(tr.boxes[0].copy())
+        return np.array(out)
+
+    off = boxes(ClusterParams(box_disp_s=0.0, **cl_kw))
+    assert off[-1][0] == pytest.approx(68)
+    np.testing.assert_allclose(boxes(ClusterParams(**cl_kw)), off)  # box_disp_q 0: the median is the foam's
+    q = boxes(ClusterParams(box_disp_q=0.5, **cl_kw))
+    assert q[-1].tolist() == pytest.approx([98 + 9.5, 58, 16, 6])

@@ -1609,6 +1609,7 @@ class ClusterParams:
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
+    box_disp_q: float = 0.0
 
 
 class FeatureClusterer:
@@ -1765,7 +1766,10 @@ class FeatureClusterer:
         members): where that median is at least ``box_disp_min_px`` long, a member whose
         displacement along it is under ``box_disp_frac`` of it stays out of the box, unless fewer
         than two would be left.  Foam of a wake and a coast stay where they are while the boat's
-        features move on, however slowly (their velocities over 0.6 s are too noisy to tell)."""
+        features move on, however slowly (their velocities over 0.6 s are too noisy to tell).
+        With ``box_disp_q`` > 0 the reference is the median displacement of the members left
+        when that fraction of them, the ones that moved least, is set aside (a cluster holding
+        more foam features than boat features)."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -1808,7 +1812,11 @@ class FeatureClusterer:
             mem = np.flatnonzero((k == c_) & sel & okd)
             if len(mem) < 3:
                 continue
-            med = np.array([np.median(dm[mem, 0]), np.median(dm[mem, 1])])
+            ref = mem
+            if p.box_disp_q > 0:  # the median of the members that moved farthest
+                ln = np.hypot(dm[mem, 0], dm[mem, 1])
+                ref = mem[np.argsort(ln, kind="stable")[int(np.floor(p.box_disp_q * len(mem))):]]
+            med = np.array([np.median(dm[ref, 0]), np.median(dm[ref, 1])])
             L = float(np.hypot(*med))
             if L < p.box_disp_min_px:
                 continue
