@@ -1535,11 +1535,13 @@ class ClusterParams:
     (0.5) and ``box_disp_min_px`` (2 px): a box member whose displacement in the scene over the
     last second, along its cluster's median displacement, is under half of it stays out of the
     box (the foam of a wake, the coast; see :meth:`FeatureClusterer._disp_members`); on the 12
-    tuning sequences mean METE 0.4702 -> 0.4633, identity switches 69 -> 70.  Tried and left
+    tuning sequences mean METE 0.4701 -> 0.4633, identity switches 69 -> 70.  Tried and left
     off: ``size_filter_s`` (0: off) with ``size_filter_k`` (1.5), ``size_filter_min_n`` (5),
     ``size_filter_width``, ``size_filter_height`` and ``size_filter_grown`` (a cluster's box held
     to its median size over the last ``size_filter_s``; see :meth:`FeatureClusterer._size_filter`;
-    best 0.4673), and ``wake_thick`` (False: the wake cut by column thickness; no gain)."""
+    best 0.4673), ``wake_thick`` (False: the wake cut by column thickness; no gain) and
+    ``box_disp_q`` (0: the displacement reference from the members that moved farthest; 0.5 gave
+    0.4631 with 66 identity switches, short of the 0.002 set for replacing the adopted setting)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
