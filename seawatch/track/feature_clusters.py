@@ -854,7 +854,8 @@ def grow_boxes(
     peak_frac: float = 0.3, max_grow_px: float = 40.0, max_area_frac: float = 0.05,
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
     wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
-    cut_core_frac: float = 0.0, cut_core_undo: bool = False, return_found: bool = False,
+    cut_core_frac: float = 0.0, cut_core_undo: bool = False, wake_thick: bool = False,
+    return_found: bool = False,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -919,6 +920,11 @@ def grow_boxes(
         See ``cut_core_frac``.
     return_found : bool
         Also return whether each box was grown (session 19; implies ``return_contrast``).
+    wake_thick : bool
+        The wake cut measures each column by its number of foreground pixels (its thickness)
+        instead of its height from its top foreground pixel to the object's bottom (not in the
+        paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
+        boat) is a thin line whose columns' heights to the object's bottom are large.
 
     Returns
     -------
@@ -945,14 +951,14 @@ def grow_boxes(
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                            int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
+                                            int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
             # coastline still reaches its edges)
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
-                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo)
+                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick)
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -964,7 +970,8 @@ def grow_boxes(
 
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
-              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False):
+              waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
+              wake_thick=False):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1016,7 +1023,8 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     if waterline_frac > 0 or wake_frac > 0:
         core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
         nx0, ny0, nx1, ny1 = _trim_object(dev, obj, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
-                                          waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
+                                          waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo,
+                                          wake_thick)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
         ny0 = y0 + _extend_top(dev, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
@@ -1053,14 +1061,21 @@ def _last_strong_row(dev, y0, y1, x0, x1, frac):
 
 
 @nb.njit(cache=True, nogil=True)
-def _tall_columns(m, frac):
+def _tall_columns(m, frac, thick=False):
     """For the object's mask ``m`` (rows, cols): each column's height (from its top pixel to the
     bottom, 0 without one), and the first and last column whose height is at least ``frac``
     times the 75th percentile of the positive heights (``np.percentile``'s float64 value; 0 when
-    none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`."""
+    none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`.
+    With ``thick``: each column's number of foreground pixels instead of its height, against
+    ``frac`` times the largest of them."""
     rows, cols = m.shape
     ext = np.zeros(cols, np.int64)
     for c in range(cols):
+        if thick:  # the column's thickness: its foreground pixels
+            for r in range(rows):
+                if m[r, c]:
+                    ext[c] += 1
+            continue
         for r in range(rows):
             if m[r, c]:
                 ext[c] = rows - r
@@ -1068,7 +1083,9 @@ def _tall_columns(m, frac):
     pos = np.sort(ext[ext > 0])
     ref = 0.0
     n = len(pos)
-    if n:
+    if thick and n:
+        ref = float(pos[n - 1])  # the thickest column (a slanted wake may be most of the columns)
+    elif n:
         vi = (n - 1) * 0.75
         if vi >= n - 1:
             ref = float(pos[n - 1])
@@ -1088,7 +1105,8 @@ def _tall_columns(m, frac):
     return first, last
 
 
-def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False):
+def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False,
+                 thick=False):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
@@ -1114,7 +1132,7 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
         m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
         # each column's height: from its top foreground pixel down to the object's bottom; the
         # first and last column at least wake_frac times their 75th percentile tall (-1: none)
-        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac))
+        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac), bool(thick))
         if t0 >= 0:
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
             run = max(3, 0.25 * (x1 - x0))
@@ -1425,6 +1443,29 @@ def appearance_distance(a, b, template_weight: float = 0.0) -> float:
     return dc + template_weight * dt
 
 
+def _carry_box(box, hmg):
+    """Box ``x, y, w, h`` carried by the homography ``hmg`` (its two corners); the box itself when
+    a corner maps to infinity."""
+    c = np.array([[box[0], box[1]], [box[0] + box[2], box[1] + box[3]]], np.float64)
+    q = c @ hmg[:2, :2].T + hmg[:2, 2]
+    w = c @ hmg[2, :2] + hmg[2, 2]
+    if np.any(np.abs(w) < 1e-12):
+        return np.asarray(box, np.float64)
+    q = q / w[:, None]
+    return np.array([q[0, 0], q[0, 1], q[1, 0] - q[0, 0], q[1, 1] - q[0, 1]])
+
+
+def _keep_edge(a0, a1, size, last):
+    """The interval ``[a0, a1]`` cut to ``size``: keeping the end that lies nearer to its place in
+    ``last`` (``(l0, l1)``, the interval of the frame before), or its centre when ``last`` is None."""
+    if last is None:
+        m = 0.5 * (a0 + a1)
+        return m - 0.5 * size, m + 0.5 * size
+    if abs(a0 - last[0]) <= abs(a1 - last[1]):
+        return a0, a0 + size
+    return a1 - size, a1
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
@@ -1505,7 +1546,18 @@ class ClusterParams:
     ``COASTING``) at the place the relink expects it, while the image still shows an object
     there (:meth:`FeatureClusterer._coast`).  On by default at 15 s, 0.4 s, with the check and
     ``coast_follow``, overlap 0.8 with ``coast_inside_big``: on the 12 tuning sequences mean METE
-    0.4702 -> 0.4385, identity switches 69 -> 64 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting")."""
+    0.4702 -> 0.4385, identity switches 69 -> 64 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting").
+    Session 19 (the box fitted to the boat): ``box_disp_s`` (1 s; 0: off) with ``box_disp_frac``
+    (0.5) and ``box_disp_min_px`` (2 px): a box member whose displacement in the scene over the
+    last second, along its cluster's median displacement, is under half of it stays out of the
+    box (the foam of a wake, the coast; see :meth:`FeatureClusterer._disp_members`); on the 12
+    tuning sequences mean METE 0.4701 -> 0.4633, identity switches 69 -> 70.  Tried and left
+    off: ``size_filter_s`` (0: off) with ``size_filter_k`` (1.5), ``size_filter_min_n`` (5),
+    ``size_filter_width``, ``size_filter_height`` and ``size_filter_grown`` (a cluster's box held
+    to its median size over the last ``size_filter_s``; see :meth:`FeatureClusterer._size_filter`;
+    best 0.4673), ``wake_thick`` (False: the wake cut by column thickness; no gain) and
+    ``box_disp_q`` (0: the displacement reference from the members that moved farthest; 0.5 gave
+    0.4631 with 66 identity switches, short of the 0.002 set for replacing the adopted setting)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1572,6 +1624,17 @@ class ClusterParams:
     coast_size_ratio: float = 2.0
     coast_overlap: float = 0.8
     coast_inside_big: bool = True
+    size_filter_s: float = 0.0
+    size_filter_k: float = 1.5
+    size_filter_min_n: int = 5
+    size_filter_width: bool = True
+    size_filter_grown: bool = False
+    size_filter_height: bool = True
+    wake_thick: bool = False
+    box_disp_s: float = 1.0
+    box_disp_frac: float = 0.5
+    box_disp_min_px: float = 2.0
+    box_disp_q: float = 0.0
 
 
 class FeatureClusterer:
@@ -1606,6 +1669,17 @@ class FeatureClusterer:
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
         self._relink_reset()
+        self._size_reset()
+
+    def _size_reset(self) -> None:
+        """The state of the box size filter (``params.size_filter_s``, see :meth:`_size_filter`)."""
+        self._size_hist: dict = {}  # cluster identity -> deque of (time, w, h) at the reference scale
+        self._size_last: dict = {}  # cluster identity -> its box (after the filter) in the last update
+        self._size_fi = -1  # frame index of the last update
+        self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
+        self._disp_ring: collections.deque = collections.deque()  # (time, slots, ids, scene positions) per frame
+        self._disp_c = np.eye(3)  # this frame's image -> the scene reference (box_disp_s)
+        self._disp_fi = -1  # frame index of the last update
 
     def _relink_reset(self) -> None:
         self._alias: dict[int, int] = {}  # cluster identity -> reported identity
@@ -1648,6 +1722,138 @@ class FeatureClusterer:
         self.graph.reset()
         self.noise_px_s = float("nan")
         self._relink_reset()
+        self._size_reset()
+
+    def _size_filter(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
+                     grown: np.ndarray | None = None) -> np.ndarray:
+        """Each cluster's box held to the size it had over the last ``params.size_filter_s``
+        seconds (not in the paper; session 19): where the box is wider (taller) than
+        ``size_filter_k`` times the median width (height) of the cluster's boxes in that time, it
+        is cut to that median width (height), keeping the edge that moved less since the
+        cluster's box of the frame before (carried by the camera motion); without that box, the
+        box keeps its centre.  The sizes are compared at one scale (the camera's zoom is followed
+        through the features' homographies); the history holds the boxes as measured (before the
+        filter), so a real change of size (a boat coming nearer) is followed after about half the
+        time.  At least ``size_filter_min_n`` boxes must be in the history.  A box grown over a
+        wake, a reflection or the coast in a few frames goes back to the boat's size.  With
+        ``size_filter_width`` (``size_filter_height``) False the width (height) is not held.  ``grown`` (bool per box, with
+        ``size_filter_grown``): only the boxes that the growing reached the object with are
+        held and enter the history (a box left at its features' extent, where the growing found
+        nothing, is neither cut nor a reference)."""
+        p = self.params
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
+        ok_h = hmg.shape == (3, 3) and bool(np.all(np.isfinite(hmg)))
+        if ok_h:
+            det = abs(float(np.linalg.det(hmg[:2, :2])))
+            if det > 0:
+                self._size_scale *= float(np.sqrt(det))
+        if not np.isfinite(self._size_scale) or self._size_scale <= 0:
+            self._size_scale = 1.0
+            self._size_hist = {}
+        sc = self._size_scale
+        last = self._size_last if (self._size_fi >= 0 and 0 < fi - self._size_fi <= 2) else {}
+        out = np.array(boxes, np.float64, copy=True)
+        new_last = {}
+        for i, c in enumerate(np.asarray(cids).tolist()):
+            x, y, w, h = out[i]
+            hist = self._size_hist.get(c)
+            if hist is None:
+                hist = self._size_hist[c] = collections.deque()
+            while hist and hist[0][0] < t - p.size_filter_s:
+                hist.popleft()
+            use = grown is None or bool(grown[i])
+            if use and len(hist) >= p.size_filter_min_n and np.isfinite(w) and np.isfinite(h):
+                arr = np.asarray(hist, np.float64)
+                mw, mh = float(np.median(arr[:, 1])) * sc, float(np.median(arr[:, 2])) * sc
+                lb = last.get(c)
+                if lb is not None and ok_h:
+                    lb = _carry_box(lb, hmg)
+                nx0, ny0, nx1, ny1 = x, y, x + w, y + h
+                if p.size_filter_width and w > p.size_filter_k * mw:
+                    nx0, nx1 = _keep_edge(nx0, nx1, mw, None if lb is None else (lb[0], lb[0] + lb[2]))
+                if p.size_filter_height and h > p.size_filter_k * mh:
+                    ny0, ny1 = _keep_edge(ny0, ny1, mh, None if lb is None else (lb[1], lb[1] + lb[3]))
+                out[i] = (nx0, ny0, nx1 - nx0, ny1 - ny0)
+            if use and np.isfinite(w) and np.isfinite(h):
+                hist.append((t, w / sc, h / sc))
+            new_last[c] = out[i].copy()
+        # forget the clusters not seen within the filter's time
+        for c in [c for c, hq in self._size_hist.items() if not hq or hq[-1][0] < t - p.size_filter_s]:
+            del self._size_hist[c]
+        self._size_last = new_last
+        self._size_fi = fi
+        return out
+
+    def _disp_members(self, snap: FeatureSnapshot, m: np.ndarray, k: np.ndarray, n: int,
+                      inb: np.ndarray | None) -> np.ndarray:
+        """Members (``m`` the snapshot's features in a cluster, ``k`` their cluster index) that
+        moved with their cluster over the last ``params.box_disp_s`` seconds (not in the paper;
+        session 19).  Each feature's position is followed in the scene (the image positions carried
+        back to the first frame through the features' homographies); its displacement over that
+        time is compared with the median displacement of its cluster's box members (``inb``, or all
+        members): where that median is at least ``box_disp_min_px`` long, a member whose
+        displacement along it is under ``box_disp_frac`` of it stays out of the box, unless fewer
+        than two would be left.  Foam of a wake and a coast stay where they are while the boat's
+        features move on, however slowly (their velocities over 0.6 s are too noisy to tell).
+        With ``box_disp_q`` > 0 the reference is the median displacement of the members left
+        when that fraction of them, the ones that moved least, is set aside (a cluster holding
+        more foam features than boat features)."""
+        p = self.params
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
+        ok_h = hmg.shape == (3, 3) and bool(np.all(np.isfinite(hmg)))
+        if ok_h and self._disp_fi >= 0 and fi == self._disp_fi + 1:
+            try:
+                self._disp_c = self._disp_c @ np.linalg.inv(hmg)
+            except np.linalg.LinAlgError:
+                ok_h = False
+        if not ok_h or self._disp_fi < 0 or fi != self._disp_fi + 1 or not np.all(np.isfinite(self._disp_c)):
+            self._disp_c = np.eye(3)  # a new reference: nothing to compare with yet
+            self._disp_ring.clear()
+        self._disp_fi = fi
+        c = self._disp_c
+        xy = np.asarray(snap.xy, np.float64)
+        hw = xy @ c[2, :2] + c[2, 2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sp = (xy @ c[:2, :2].T + c[:2, 2]) / hw[:, None]
+        slots = np.asarray(snap.slots, np.int64)
+        ids = np.asarray(snap.ids, np.int64)
+        ring = self._disp_ring
+        ring.append((t, slots, ids, sp))
+        while len(ring) > 1 and ring[1][0] <= t - p.box_disp_s:
+            ring.popleft()
+        keep = np.ones(int(m.sum()), bool)
+        t0, s0, i0, p0 = ring[0]
+        if t - t0 < 0.5 * p.box_disp_s or len(slots) == 0:
+            return keep
+        size = int(max(slots.max(), s0.max() if len(s0) else 0)) + 1
+        old = np.full((size, 2), np.nan)
+        old_id = np.full(size, -1, np.int64)
+        old[s0] = p0
+        old_id[s0] = i0
+        d = sp - old[slots]
+        d[old_id[slots] != ids] = np.nan
+        dm = d[m]
+        sel = np.ones(len(k), bool) if inb is None else inb
+        okd = np.isfinite(dm).all(axis=1)
+        for c_ in np.unique(k[sel & okd]):
+            mem = np.flatnonzero((k == c_) & sel & okd)
+            if len(mem) < 3:
+                continue
+            ref = mem
+            if p.box_disp_q > 0:  # the median of the members that moved farthest
+                ln = np.hypot(dm[mem, 0], dm[mem, 1])
+                ref = mem[np.argsort(ln, kind="stable")[int(np.floor(p.box_disp_q * len(mem))):]]
+            med = np.array([np.median(dm[ref, 0]), np.median(dm[ref, 1])])
+            L = float(np.hypot(*med))
+            if L < p.box_disp_min_px:
+                continue
+            along = dm[mem] @ (med / L)
+            out = along < p.box_disp_frac * L
+            if len(mem) - int(out.sum()) >= 2:
+                keep[mem[out]] = False
+        return keep
 
     def _box_anchor(self, snap, cids, k, xy):
         """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
@@ -2128,6 +2334,13 @@ class FeatureClusterer:
                 dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
             anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
             inb = _box_members(k, fv, n, dv, anchor)
+        else:
+            inb = None
+        if p.box_disp_s > 0:
+            # the box is drawn around the members that moved with the cluster over box_disp_s
+            keep = self._disp_members(snap, m, k, n, inb)
+            inb = keep if inb is None else inb & keep
+        if inb is not None:
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
             kb, xyb, rb = k, xy, r
@@ -2162,17 +2375,23 @@ class FeatureClusterer:
                 # a wake trails behind a boat moving across the image (relative to the scene):
                 # the box members' mean velocity
                 fvb = member_velocity()
-                fvb = fvb[inb] if p.box_dv_px_s > 0 else fvb
+                fvb = fvb[inb] if inb is not None else fvb
                 okv = np.isfinite(fvb).all(axis=1)
                 vx = np.zeros(n)
                 np.add.at(vx, kb[okv], fvb[okv, 0])
                 vx /= np.maximum(np.bincount(kb[okv], minlength=n), 1)
                 trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
+            pre_grow = boxes
             boxes, self.last_contrast = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
-                cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo)
+                cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick)
+        if p.size_filter_s > 0:
+            grown = None
+            if p.size_filter_grown and image is not None and p.grow_box > 0:
+                grown = np.any(boxes != pre_grow, axis=1)  # the boxes that the growing changed
+            boxes = self._size_filter(snap, cids, boxes, grown)
         if p.box_keep_last:
             self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
             self._cluster_boxes_t = fi
