@@ -318,3 +318,40 @@ def test_detect_and_auto_find_the_horizon_in_the_image():
     trk = StableFeatureTracker(horizon="camera")
     trk.process(Frame(img, 0.0, 0, ptz=ptz))
     assert trk.last_horizon is None
+
+
+def test_the_coast_foot_within_the_water_margin_is_not_a_still_object():
+    # a still object whose features lie 3-7 px under the sea horizon (the foot of a coast in front
+    # of it) is not joined by default (water_margin_px 8); with the old margin of 4 px it was
+    rng = np.random.default_rng(6)
+    boats = [(60, 102, 20, 6), (200, 140, 20, 10)]
+    hz = Horizon(HORIZON_ROW, HORIZON_ROW, W)
+    seen = {}
+    for margin in (8.0, 4.0):
+        ext = StableFeatureExtractor(nominal_fps=FPS)
+        cl = FeatureClusterer(ClusterParams(water_margin_px=margin))
+        hits = {0: 0, 1: 0}
+        ys = []
+        for i in range(30):
+            t = i / FPS
+            img = _scene(rng, boats, (2.0 * i, 0.0), t)
+            snap = ext.process(img, t, i, horizon=hz)
+            _, tracks = cl.update(snap, img, horizon=hz)
+            if i < 15:
+                continue
+            for k, (x, y, w, hh) in enumerate(boats):
+                x0 = x + 2.0 * i
+                inb = snap.stable & (np.abs(snap.xy[:, 0] - (x0 + w / 2)) < w / 2 + 2) & \
+                    (np.abs(snap.xy[:, 1] - (y + hh / 2)) < hh / 2 + 2)
+                if k == 0:
+                    ys += (snap.xy[inb, 1] - HORIZON_ROW).tolist()
+                for b in tracks.boxes[tracks.states == 1]:
+                    cx, cy = b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]
+                    if x0 - 3 <= cx <= x0 + w + 3 and y - 3 <= cy <= y + hh + 3:
+                        hits[k] += 1
+                        break
+        seen[margin] = (hits, ys)
+    ys = np.array(seen[8.0][1])
+    assert len(ys) and 4.0 < np.median(ys) < 8.0  # the object's features lie between the margins
+    assert seen[8.0][0][0] == 0 and seen[4.0][0][0] >= 10  # joined with 4 px only
+    assert seen[8.0][0][1] >= 10 and seen[4.0][0][1] >= 10  # a still boat lower down either way

@@ -1580,7 +1580,7 @@ class ClusterParams:
     merge_overlap: float = 0.25
     still_radius_px: float = 15.0
     relink_predict: bool = True
-    water_margin_px: float = 4.0
+    water_margin_px: float = 8.0
     relink_px_per_s: float = 10.0
     relink_predict_s: float = 0.0
     relink_overlap: float = 0.3
