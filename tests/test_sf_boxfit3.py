@@ -101,3 +101,16 @@ def test_grow_sign_is_off_by_default_and_the_clusterer_passes_it():
     on = run_clusterer(ClusterParams(grow_sign=0.7, **p), img)
     assert off[0] == pytest.approx(92)  # the foam is in
     assert on.tolist() == pytest.approx(list(HULL))
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_negative_fraction_masks_only_from_the_core_top_down(seed):
+    # grow_sign < 0: the other sign above the core (a white cabin over the dark hull) stays in the
+    # segmentation itself, the foam at the waterline (below the core's top) is still left out
+    img = scene(seed, foam=True, cabin=True)
+    low = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120, sign_frac=-0.7)[0]
+    assert low.tolist() == pytest.approx([100, 53, 20, 14])
+    full = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120, sign_frac=0.7)[0]
+    assert full.tolist() == pytest.approx(list(HULL))
+    off = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120)[0]
+    assert off.tolist() == pytest.approx([92, 53, 28, 14])

@@ -766,14 +766,16 @@ def _close_label(fg):
 
 
 @nb.njit(cache=True, nogil=True)
-def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac):
+def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac, low=False):
     """The deviation ``dev`` (float32) of a window ``win`` from its rows' background ``bg`` kept to
     the core's polarity (session 20, ``grow_boxes``' ``sign_frac``): each pixel's sign is that of
     the sum over the channels of its difference from the background (darker -1, brighter +1);
     when at least ``frac`` of the core's foreground pixels (``dev > thr`` in ``[r0:r1, c0:c1]``)
     have one sign, the pixels of the other sign outside the core get deviation 0.  A dark hull's
     bright wake foam (or a bright hull's dark shadow) then no longer joins the object.  Returns
-    ``(dev or its masked copy, polarity)``, polarity 0 when neither sign dominates."""
+    ``(dev or its masked copy, polarity)``, polarity 0 when neither sign dominates.  With ``low``
+    only the pixels from the core's top row down are masked (a superstructure of the other sign
+    above the hull stays; a wake lies at the waterline)."""
     rows, cols = dev.shape
     nc = win.shape[2]
     sg = np.zeros((rows, cols), np.int8)
@@ -802,7 +804,7 @@ def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac):
     else:
         return dev, 0
     out = dev.copy()
-    for r in range(rows):
+    for r in range(r0 if low else 0, rows):
         for q in range(cols):
             if sg[r, q] == -pol and not (r0 <= r < r1 and c0 <= q < c1):
                 out[r, q] = np.float32(0.0)
@@ -970,7 +972,9 @@ def grow_boxes(
         brighter), the pixels of the other sign outside the core are not foreground for the
         segmentation and the cuts (the top extension, ``top_frac``, still sees them).  A dark
         hull's wake is bright foam at its stern; with both signs the growing joined the foam
-        to the hull (the rib of sim ``pan``: reports 2-6 times its size).
+        to the hull (the rib of sim ``pan``: reports 2-6 times its size).  Negative: the same
+        fraction, but only the pixels from the core's top row down are masked (the other sign above
+        the core, a superstructure, stays in).
     wake_thick : bool
         The wake cut measures each column by its number of foreground pixels (its thickness)
         instead of its height from its top foreground pixel to the object's bottom (not in the
@@ -1058,8 +1062,8 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     dev = _window_deviation(win, bg, 0, win.shape[0], 0, win.shape[1])
     thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
     dev_all = dev
-    if sign_frac > 0:  # the other polarity outside the core is not the object (a dark hull's foam)
-        dev, _ = _one_sign(win, bg, dev, np.float32(thr), r0, r1, q0, q1, float(sign_frac))
+    if sign_frac != 0:  # the other polarity outside the core is not the object (a dark hull's foam)
+        dev, _ = _one_sign(win, bg, dev, np.float32(thr), r0, r1, q0, q1, abs(float(sign_frac)), sign_frac < 0)
     # the foreground (numpy compares the float32 deviations with thr cast to float32) closed by
     # a 3x3 square, its components touching the core; a component reaching the window's left or
     # right edge is background structure (coast, horizon, sea texture), not the object (a mast or
@@ -1617,7 +1621,8 @@ class ClusterParams:
     Session 20 (the ``pan`` box fit): ``grow_sign`` (0: off): the box growing keeps to the core's
     polarity when at least this fraction of the core's foreground pixels are darker (or brighter)
     than the background: pixels of the other sign outside the core are not the object (the bright
-    foam at a dark rib's stern; see :func:`grow_boxes`, ``sign_frac``)."""
+    foam at a dark rib's stern; see :func:`grow_boxes`, ``sign_frac``); negative: only from the
+    core's top row down."""
 
     dmax: float = 0.31
     alpha: float = 3.0
