@@ -114,3 +114,12 @@ def test_negative_fraction_masks_only_from_the_core_top_down(seed):
     assert full.tolist() == pytest.approx(list(HULL))
     off = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120)[0]
     assert off.tolist() == pytest.approx([92, 53, 28, 14])
+
+
+def test_sign_max_px_limits_the_step_to_small_boxes():
+    img = scene(9)
+    small = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120, sign_frac=0.7, sign_max_px=8)[0]
+    assert small.tolist() == pytest.approx(list(HULL))  # the box is 8 px tall: the step acts
+    big = grow_boxes(img, BOX, CORE, peak_frac=0.5, wide_grow_px=120, sign_frac=0.7, sign_max_px=7.9)[0]
+    assert big[0] == pytest.approx(92)  # taller than the limit: grown as without the step
+    assert ClusterParams().grow_sign_max_px == 0.0

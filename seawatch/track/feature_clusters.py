@@ -901,7 +901,7 @@ def grow_boxes(
     return_contrast: bool = False, wide_grow_px: float = 0.0, waterline_frac: float = 0.0,
     wake_frac: float = 0.0, trail: np.ndarray | None = None, top_frac: float = 0.0,
     cut_core_frac: float = 0.0, cut_core_undo: bool = False, wake_thick: bool = False,
-    return_found: bool = False, sign_frac: float = 0.0,
+    return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -975,6 +975,11 @@ def grow_boxes(
         to the hull (the rib of sim ``pan``: reports 2-6 times its size).  Negative: the same
         fraction, but only the pixels from the core's top row down are masked (the other sign above
         the core, a superstructure, stays in).
+    sign_max_px : float
+        ``sign_frac`` only for boxes (as given, before the growing) at most this tall (0: all).  A
+        ship seen large is often two clusters of opposite polarity (a dark hull, a white
+        superstructure) whose grown boxes overlap and are reported as one; kept to their
+        polarities they are reported apart.
     wake_thick : bool
         The wake cut measures each column by its number of foreground pixels (its thickness)
         instead of its height from its top foreground pixel to the object's bottom (not in the
@@ -1004,10 +1009,11 @@ def grow_boxes(
         x, y, w, h = out[n]
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
+        sf = sign_frac if (sign_max_px <= 0 or h <= sign_max_px) else 0.0
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sign_frac)
+                                            sf)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1015,7 +1021,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sign_frac)
+                                   sf)
             if box is not None:
                 contrast[n] = c2
         if box is not None:
@@ -1622,7 +1628,8 @@ class ClusterParams:
     polarity when at least this fraction of the core's foreground pixels are darker (or brighter)
     than the background: pixels of the other sign outside the core are not the object (the bright
     foam at a dark rib's stern; see :func:`grow_boxes`, ``sign_frac``); negative: only from the
-    core's top row down."""
+    core's top row down; ``grow_sign_max_px`` (0: all): only for boxes at most this tall before
+    the growing (a large ship's dark hull and white superstructure, two clusters, stay joined)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1701,6 +1708,7 @@ class ClusterParams:
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
     grow_sign: float = 0.0
+    grow_sign_max_px: float = 0.0
 
 
 class FeatureClusterer:
@@ -2453,7 +2461,7 @@ class FeatureClusterer:
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
-                sign_frac=p.grow_sign)
+                sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px)
         if p.size_filter_s > 0:
             grown = None
             if p.size_filter_grown and image is not None and p.grow_box > 0:
