@@ -78,6 +78,7 @@ def main(argv=None) -> int:
     nf = 0
     loss = collections.Counter()
     count = collections.Counter()
+    by_boat = collections.Counter()
     total = 0.0
     for f, g in scn.iter_frames():
         nf += 1
@@ -103,12 +104,14 @@ def main(argv=None) -> int:
                     why = ws[0] if len(set(ws)) == 1 else "several parts: " + "/".join(sorted(set(ws)))
             loss[why] += w
             count[why] += 1
+            by_boat[int(gi[a])] += w
             if os.environ.get("SMALL_SHOW") == why:
                 print(f"  f {f.index} boat {int(gi[a])} gt {np.round(gt, 1).tolist()} rep {np.round(rep, 1).tolist()} "
                       f"iou {iou[a, b]:.2f}")
     print(f"{args.scenario} {args.seed}: too-small IoU loss {total / nf:.4f} (METE units)")
     for k, v in loss.most_common():
         print(f"  {k:45s} {v / nf:.4f}  ({count[k]} pairs)")
+    print("  by boat: " + ", ".join(f"{b} {v / nf:.4f}" for b, v in by_boat.most_common()))
     return 0
 
 
