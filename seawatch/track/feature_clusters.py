@@ -1629,7 +1629,10 @@ class ClusterParams:
     than the background: pixels of the other sign outside the core are not the object (the bright
     foam at a dark rib's stern; see :func:`grow_boxes`, ``sign_frac``); negative: only from the
     core's top row down; ``grow_sign_max_px`` (0: all): only for boxes at most this tall before
-    the growing (a large ship's dark hull and white superstructure, two clusters, stay joined)."""
+    the growing (a large ship's dark hull and white superstructure, two clusters, stay joined).
+    Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
+    0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
+    none both 0.004 lower and within 2 switches (docs/stable_features.md, "Session 20")."""
 
     dmax: float = 0.31
     alpha: float = 3.0
