@@ -968,8 +968,8 @@ def grow_boxes(
         Also return whether each box was grown (session 19; implies ``return_contrast``).
     sign_frac : float
         Grow to the core's polarity only (0: off; not in the paper, session 20): when at least
-        this fraction of the core's foreground pixels are darker than the background (or all
-        brighter), the pixels of the other sign outside the core are not foreground for the
+        this fraction of the core's foreground pixels are darker than the background (or that
+        fraction brighter), the pixels of the other sign outside the core are not foreground for the
         segmentation and the cuts (the top extension, ``top_frac``, still sees them).  A dark
         hull's wake is bright foam at its stern; with both signs the growing joined the foam
         to the hull (the rib of sim ``pan``: reports 2-6 times its size).  Negative: the same
