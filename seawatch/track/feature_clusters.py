@@ -1466,6 +1466,17 @@ def _keep_edge(a0, a1, size, last):
     return a1 - size, a1
 
 
+def _moves_alike(v_lost, v_new, max_dv) -> bool:
+    """Whether two own velocities (px/s) differ by at most ``max_dv`` (vector difference); True
+    when either is unknown (None or not finite)."""
+    if v_lost is None or v_new is None:
+        return True
+    a, b = np.asarray(v_lost, np.float64), np.asarray(v_new, np.float64)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return True
+    return float(np.hypot(*(a - b))) <= max_dv
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
@@ -1635,6 +1646,8 @@ class ClusterParams:
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
+    relink_dv_px_s: float = 0.0
+    hand_over_dv_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -1689,6 +1702,9 @@ class FeatureClusterer:
         self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
         self._lost_dir: dict[int, tuple] = {}  # lost identity -> (azimuths, elevations) of its box corners
+        self._own_now: dict = {}  # reported identity -> its own velocity this frame (NaN: unknown; hand_over_dv_px_s)
+        self._own_prev: dict = {}  # the same, the frame before
+        self._lost_v: dict = {}  # lost identity -> its own velocity when last seen (NaN: unknown; relink_dv_px_s)
         self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions, the cluster that took it)
         self._camera = None
         self._prev_camera = None
@@ -2083,6 +2099,10 @@ class FeatureClusterer:
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
+        own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s)
+        # for the velocity checks (relink_dv_px_s, hand_over_dv_px_s): NaN where no member has a velocity
+        own_k = None if own_v is None else np.where(np.all(np.asarray(vel) == 0, axis=1)[:, None], np.nan, own_v)
+        zdv = self._zoom
         # new clusters take lost identities, nearest pairs first, within a gate that grows with
         # the time lost (relink_px + relink_px_per_s per second)
         pairs = []
@@ -2100,6 +2120,8 @@ class FeatureClusterer:
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
+                    if p.relink_dv_px_s > 0 and not _moves_alike(self._lost_v.get(k), own_k[i], p.relink_dv_px_s * zdv):
+                        continue  # session 20: a boat keeps its own velocity through a loss
                     pairs.append((d, i, k))
         done = set()
         for d, i, k in sorted(pairs):
@@ -2138,17 +2160,9 @@ class FeatureClusterer:
             self._alias = {k: v for k, v in self._alias.items() if k in self._known}
         now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
         own = {}
-        if vel is not None and len(rep):
-            # the object's own velocity: its image velocity less the camera's at its centre
-            c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
-            try:
-                hinv = np.linalg.inv(h)
-                back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
-                back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
-                cam = (c - back) / max(dt, 1e-6)
-                own = {int(r): np.nan_to_num(vel[i] - cam[i]) for i, r in enumerate(rep)}
-            except np.linalg.LinAlgError:
-                own = {}
+        if vel is not None and len(rep) and own_v is not None:
+            own = {int(r): np.nan_to_num(own_v[i]) for i, r in enumerate(rep)}
+        self._own_now = {int(r): own_k[i] for i, r in enumerate(rep)} if own_k is not None else {}
         renamed = set()  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
@@ -2165,6 +2179,8 @@ class FeatureClusterer:
                     continue
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
+                    self._lost_v[k] = self._own_prev.get(k)
                 if p.relink_appearance:  # its look in the last frame it was seen
                     self._lost_sig[k] = (None if self._app_prev_img is None
                                          else appearance_signature(self._app_prev_img, b))
@@ -2187,12 +2203,33 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
         self._prev_boxes = now
         self._prev_vel = own
+        self._own_prev = self._own_now
+        if len(self._lost_v) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
         self._prev_camera = fcam
         if p.relink_appearance:
             self._app_prev_img = self._app_img
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    @staticmethod
+    def _own_velocity(h, boxes, vel, dt):
+        """Each cluster's own velocity (px/s): its image velocity ``vel`` less the camera's motion
+        at its box's centre (the snapshot's homography ``h`` over ``dt``); NaN where the cluster's
+        velocity is unknown (no member with a velocity) is not marked: see ``own_known``.  None
+        without ``vel`` or when ``h`` cannot be inverted."""
+        if vel is None or not len(boxes):
+            return None
+        c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
+        try:
+            hinv = np.linalg.inv(h)
+        except np.linalg.LinAlgError:
+            return None
+        back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
+        back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
+        cam = (c - back) / max(dt, 1e-6)
+        return np.asarray(vel, np.float64) - cam
 
     def _looks_alike(self, k, i, cids, boxes, t, sig_new) -> bool:
         """``relink_appearance``: whether new cluster ``i`` (its box ``boxes[i]`` in this frame's
@@ -2230,6 +2267,9 @@ class FeatureClusterer:
             ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
             small = min(b[2] * b[3], lb[2] * lb[3])
             o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
+            if o >= best_o and self.params.hand_over_dv_px_s > 0 and not _moves_alike(
+                    self._lost_v.get(k), self._own_now.get(r), self.params.hand_over_dv_px_s * self._zoom):
+                continue  # session 20: a neighbour moving otherwise is another boat
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
