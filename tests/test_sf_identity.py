@@ -1,0 +1,100 @@
+"""Session 20 (issue #8, one identity per boat): a lost identity goes only to a cluster whose own
+velocity agrees with the one it had when last seen (``relink_dv_px_s`` for the relink,
+``hand_over_dv_px_s`` for the hand-over; 0: off)."""
+
+import numpy as np
+
+from _feature_snap import snap
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _moves_alike
+
+
+def test_moves_alike_is_a_vector_difference_and_unknown_passes():
+    assert _moves_alike(np.array([20.0, 0.0]), np.array([20.0, 5.0]), 6.0)
+    assert not _moves_alike(np.array([20.0, 0.0]), np.array([14.0, 0.0]), 5.9)
+    assert not _moves_alike(np.array([3.0, 4.0]), np.array([0.0, 0.0]), 4.9)  # |(3, 4)| = 5
+    assert _moves_alike(np.array([3.0, 4.0]), np.array([0.0, 0.0]), 5.0)
+    assert _moves_alike(None, np.array([0.0, 0.0]), 1.0)
+    assert _moves_alike(np.array([np.nan, 0.0]), np.array([100.0, 0.0]), 1.0)
+
+
+def test_defaults_are_off():
+    p = ClusterParams()
+    assert p.relink_dv_px_s == 0.0 and p.hand_over_dv_px_s == 0.0
+
+
+def _relink_run(new_vel, **kw):
+    """A boat moving +20 px/s is lost at 0.1 s; 0.5 s later a cluster moving at ``new_vel`` appears
+    10 px from where it was lost (within the relink gate).  Returns (lost identity, new report's)."""
+    vel = [[20.0, 0.0]] * 2
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0, **kw))
+    _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    c.update(snap([[102, 60], [112, 62]], vel, 0.1, 1, ids=[1, 2]))
+    first = int(tr.ids[0])
+    for k in range(2, 7):
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, ids=[]))
+    nv = [list(new_vel)] * 2
+    _, tr = c.update(snap([[125, 60], [135, 62]], nv, 0.7, 7, ids=[3, 4]))
+    assert len(tr) == 1
+    return first, int(tr.ids[0]), c
+
+
+def test_relink_refused_to_a_cluster_moving_otherwise():
+    first, now, _ = _relink_run((-20.0, 0.0))  # off: the relink takes the boat moving the other way
+    assert now == first
+    first, now, c = _relink_run((-20.0, 0.0), relink_dv_px_s=10.0)
+    assert now != first and first in c._lost  # refused: 40 px/s apart; the identity stays lost
+    first, now, _ = _relink_run((-20.0, 0.0), relink_dv_px_s=45.0)  # within 45 px/s
+    assert now == first
+
+
+def test_relink_kept_for_a_cluster_moving_alike():
+    first, now, _ = _relink_run((24.0, 3.0), relink_dv_px_s=10.0)  # 5 px/s apart
+    assert now == first
+
+
+def test_relink_check_scales_with_the_zoom():
+    """The threshold is in pixels per second times the camera's zoom (a boat's image speed grows
+    with the zoom)."""
+    vel = [[20.0, 0.0]] * 2
+
+    def run(zoom):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0, relink_dv_px_s=10.0))
+        _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]), zoom=zoom)
+        c.update(snap([[102, 60], [112, 62]], vel, 0.1, 1, ids=[1, 2]), zoom=zoom)
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.2, 2, ids=[]), zoom=zoom)
+        _, tr2 = c.update(snap([[106, 60], [116, 62]], [[5.0, 0.0]] * 2, 0.3, 3, ids=[3, 4]), zoom=zoom)
+        return int(tr.ids[0]), int(tr2.ids[0])
+
+    first, now = run(1.0)  # 15 px/s apart > 10
+    assert now != first
+    first, now = run(2.0)  # 15 <= 10 x 2
+    assert now == first
+
+
+def _hand_over_run(**kw):
+    """Two clusters whose boxes overlap by 0.48 of the smaller (so both are reported), the older
+    moving +20 px/s in x, the younger +20 px/s in y (28 px/s apart); the older dies."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=0.3, merge_overlap=0.5,
+                                       coast_s=0.0, **kw))
+    xy = [[100, 60], [110, 62], [106, 61], [116, 63]]
+    vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
+    _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))
+    c.update(snap(xy, vel, 0.1, 1, ids=[1, 2, 3, 4]))
+    assert len(tr) == 2
+    old, young = sorted(int(i) for i in tr.ids)
+    s1 = snap(xy[2:], vel[2:], 0.2, 2, ids=[3, 4])
+    s1.slots = np.array([2, 3])  # the same features as before
+    _, tr = c.update(s1)
+    return old, young, tr.ids.tolist(), c
+
+
+def test_hand_over_refused_to_a_neighbour_moving_otherwise():
+    old, young, now, c = _hand_over_run()
+    assert now == [old]  # off: the younger takes the older identity
+    old, young, now, c = _hand_over_run(hand_over_dv_px_s=20.0)
+    assert now == [young] and old in c._lost  # 28 px/s apart: another boat; the older one stays lost
+    old, young, now, c = _hand_over_run(hand_over_dv_px_s=30.0)
+    assert now == [old]
+    # the relink check alone does not touch the hand-over
+    old, young, now, c = _hand_over_run(relink_dv_px_s=5.0)
+    assert now == [old]
