@@ -98,3 +98,28 @@ def test_hand_over_refused_to_a_neighbour_moving_otherwise():
     # the relink check alone does not touch the hand-over
     old, young, now, c = _hand_over_run(relink_dv_px_s=5.0)
     assert now == [old]
+
+
+def test_dv_still_skips_the_check_while_the_camera_moves():
+    """With ``dv_still_px_s`` the velocity check applies only where the camera's image motion at
+    the box is under that speed (times the zoom), when the identity was lost and now: during a
+    pan the own velocity (image velocity less the camera's) is unreliable."""
+    def run(cam_px_s, still):
+        # the camera pans: every point moves cam_px_s px/s in x (0.1 s a frame); the features move with it
+        h = np.array([[1.0, 0.0, 0.1 * cam_px_s], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0, relink_dv_px_s=10.0,
+                                           dv_still_px_s=still))
+        v1 = [[20.0 + cam_px_s, 0.0]] * 2  # own velocity +20 px/s
+        _, tr = c.update(snap([[100, 60], [110, 62]], v1, 0.0, 0, ids=[1, 2], h=h))
+        c.update(snap([[102, 60], [112, 62]], v1, 0.1, 1, ids=[1, 2], h=h))
+        c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.2, 2, ids=[], h=h))
+        v2 = [[-20.0 + cam_px_s, 0.0]] * 2  # own velocity -20 px/s
+        _, tr2 = c.update(snap([[106, 60], [116, 62]], v2, 0.3, 3, ids=[3, 4], h=h))
+        return int(tr.ids[0]), int(tr2.ids[0])
+
+    first, now = run(0.0, 5.0)  # still camera: checked, refused
+    assert now != first
+    first, now = run(30.0, 5.0)  # panning camera: not checked
+    assert now == first
+    first, now = run(30.0, 0.0)  # without dv_still_px_s: checked during the pan too
+    assert now != first

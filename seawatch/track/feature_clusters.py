@@ -1648,6 +1648,7 @@ class ClusterParams:
     box_disp_q: float = 0.0
     relink_dv_px_s: float = 0.0
     hand_over_dv_px_s: float = 0.0
+    dv_still_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2099,10 +2100,10 @@ class FeatureClusterer:
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
-        own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s)
+        own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s), the camera's speed
+        own_v, cam_s = (None, None) if own_v is None else own_v
         # for the velocity checks (relink_dv_px_s, hand_over_dv_px_s): NaN where no member has a velocity
         own_k = None if own_v is None else np.where(np.all(np.asarray(vel) == 0, axis=1)[:, None], np.nan, own_v)
-        zdv = self._zoom
         # new clusters take lost identities, nearest pairs first, within a gate that grows with
         # the time lost (relink_px + relink_px_per_s per second)
         pairs = []
@@ -2120,7 +2121,7 @@ class FeatureClusterer:
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
-                    if p.relink_dv_px_s > 0 and not _moves_alike(self._lost_v.get(k), own_k[i], p.relink_dv_px_s * zdv):
+                    if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
                     pairs.append((d, i, k))
         done = set()
@@ -2162,7 +2163,7 @@ class FeatureClusterer:
         own = {}
         if vel is not None and len(rep) and own_v is not None:
             own = {int(r): np.nan_to_num(own_v[i]) for i, r in enumerate(rep)}
-        self._own_now = {int(r): own_k[i] for i, r in enumerate(rep)} if own_k is not None else {}
+        self._own_now = {int(r): (own_k[i], cam_s[i]) for i, r in enumerate(rep)} if own_k is not None else {}
         renamed = set()  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
@@ -2217,8 +2218,9 @@ class FeatureClusterer:
     def _own_velocity(h, boxes, vel, dt):
         """Each cluster's own velocity (px/s): its image velocity ``vel`` less the camera's motion
         at its box's centre (the snapshot's homography ``h`` over ``dt``); NaN where the cluster's
-        velocity is unknown (no member with a velocity) is not marked: see ``own_known``.  None
-        without ``vel`` or when ``h`` cannot be inverted."""
+        velocity is unknown (no member with a velocity) is not marked.  Returns it with the camera's
+        image speed at each box's centre (px/s); None without ``vel`` or when ``h`` cannot be
+        inverted."""
         if vel is None or not len(boxes):
             return None
         c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
@@ -2229,7 +2231,23 @@ class FeatureClusterer:
         back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
         back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
         cam = (c - back) / max(dt, 1e-6)
-        return np.asarray(vel, np.float64) - cam
+        return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
+
+    def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
+        """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
+        (px/s; the camera's image speed at its box ``cam_new``) may take lost identity ``k``: the
+        two own velocities differ by at most ``max_dv`` times the zoom.  True when either is
+        unknown and, with ``dv_still_px_s``, when the camera moved faster than that (times the
+        zoom) at either box (a pan: the own velocities are unreliable then)."""
+        e = self._lost_v.get(k)
+        if e is None or v_new is None:
+            return True
+        v_lost, cam_lost = e
+        z = self._zoom
+        still = self.params.dv_still_px_s
+        if still > 0 and not (cam_lost <= still * z and cam_new <= still * z):
+            return True
+        return _moves_alike(v_lost, v_new, max_dv * z)
 
     def _looks_alike(self, k, i, cids, boxes, t, sig_new) -> bool:
         """``relink_appearance``: whether new cluster ``i`` (its box ``boxes[i]`` in this frame's
@@ -2267,8 +2285,8 @@ class FeatureClusterer:
             ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
             small = min(b[2] * b[3], lb[2] * lb[3])
             o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
-            if o >= best_o and self.params.hand_over_dv_px_s > 0 and not _moves_alike(
-                    self._lost_v.get(k), self._own_now.get(r), self.params.hand_over_dv_px_s * self._zoom):
+            if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
+                    k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
                 continue  # session 20: a neighbour moving otherwise is another boat
             if o >= best_o:
                 best, best_o = i, o
