@@ -123,3 +123,46 @@ def test_dv_still_skips_the_check_while_the_camera_moves():
     assert now == first
     first, now = run(30.0, 0.0)  # without dv_still_px_s: checked during the pan too
     assert now != first
+
+
+def _two_objects(seed):
+    """Grey sea (120, noise 2) with two dark objects: x 100-112 and x 150-160, rows 59-64."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, (160, 240))
+    img[59:64, 100:112] = 60.0
+    img[59:64, 150:160] = 60.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def _joined_run(skip):
+    """An older cluster on the first object and a younger one on the second, reported apart for
+    0.5 s; then the older cluster's box spreads over both (one of its features moves onto the
+    second object) and the two reports are joined under the older identity.  Returns the younger
+    identity and the last frame's tracks."""
+    from seawatch.types import TrackState
+
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0,
+                                       relink_overlap=0.0, coast_skip_merged=skip))
+    a, va = [[102, 61], [110, 62]], [[5, 0], [5, 0]]
+    b, vb = [[151, 61], [158, 62]], [[-8, 0], [-8, 0]]
+    tr = None
+    for k in range(6):
+        xy, v, ids = (a + b, va + vb, [1, 2, 7, 8]) if k >= 1 else (a, va, [1, 2])
+        _, tr = c.update(snap(xy, v, 0.1 * k, k, ids), _two_objects(k))
+    assert len(tr) == 2
+    young = int(max(tr.ids))
+    _, tr = c.update(snap([[102, 61], [156, 62]] + b, va + vb, 0.6, 6, [1, 2, 7, 8]), _two_objects(6))
+    co = tr.states == int(TrackState.COASTING)
+    return young, tr, co
+
+
+def test_a_cluster_joined_into_another_report_is_not_coasted():
+    young, tr, co = _joined_run(False)
+    assert (~co).sum() == 1 and young not in tr.ids[~co].tolist()  # one live report, the older identity
+    assert tr.ids[co].tolist() == [young]  # off: the younger identity is coasted inside that report
+    young, tr, co = _joined_run(True)
+    assert (~co).sum() == 1 and not co.any()  # on: its boat is in the joined report
+
+
+def test_coast_skip_merged_is_off_by_default():
+    assert ClusterParams().coast_skip_merged is False

@@ -1649,6 +1649,7 @@ class ClusterParams:
     relink_dv_px_s: float = 0.0
     hand_over_dv_px_s: float = 0.0
     dv_still_px_s: float = 0.0
+    coast_skip_merged: bool = False
 
 
 class FeatureClusterer:
@@ -1728,6 +1729,7 @@ class FeatureClusterer:
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
+        self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
         # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
         self.coast_log: collections.deque = collections.deque(maxlen=2000)
@@ -2359,6 +2361,7 @@ class FeatureClusterer:
         dts = float(getattr(snap, "dt_s", float("nan")))
         if np.isfinite(dts) and dts > 0:
             self._dts = (self._dts + [dts])[-9:]
+        self._joined_ids = set()
         if n == 0:
             self._merged = []
             self._last_fi = fi
@@ -2501,6 +2504,8 @@ class FeatureClusterer:
                                                          p.merge_keep_gap_h, self._apart or None)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
+            # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
+            self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g}
         else:
             self._merged = []
         if p.relink_s > 0:
@@ -2526,7 +2531,10 @@ class FeatureClusterer:
 
     def _with_coasts(self, tracks: Tracks, snap: FeatureSnapshot, image=None) -> Tracks:
         """``tracks`` with the coasting identities appended (:meth:`_coast`)."""
-        ids, boxes, vel = self._coast(snap, tracks.boxes, image, set(int(i) for i in tracks.ids))
+        present = set(int(i) for i in tracks.ids)
+        if self.params.coast_skip_merged:  # a cluster joined into another's report: its boat is in that report
+            present |= self._joined_ids
+        ids, boxes, vel = self._coast(snap, tracks.boxes, image, present)
         if not len(ids):
             return tracks
         t = snap.t_s
