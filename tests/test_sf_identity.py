@@ -134,7 +134,7 @@ def _two_objects(seed):
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def _joined_run(skip):
+def _joined_run(skip, dv=0.0):
     """An older cluster on the first object and a younger one on the second, reported apart for
     0.5 s; then the older cluster's box spreads over both (one of its features moves onto the
     second object) and the two reports are joined under the older identity.  Returns the younger
@@ -142,7 +142,7 @@ def _joined_run(skip):
     from seawatch.types import TrackState
 
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0,
-                                       relink_overlap=0.0, coast_skip_merged=skip))
+                                       relink_overlap=0.0, coast_skip_merged=skip, coast_skip_merged_dv=dv))
     a, va = [[102, 61], [110, 62]], [[5, 0], [5, 0]]
     b, vb = [[151, 61], [158, 62]], [[-8, 0], [-8, 0]]
     tr = None
@@ -162,6 +162,12 @@ def test_a_cluster_joined_into_another_report_is_not_coasted():
     assert tr.ids[co].tolist() == [young]  # off: the younger identity is coasted inside that report
     young, tr, co = _joined_run(True)
     assert (~co).sum() == 1 and not co.any()  # on: its boat is in the joined report
+    # with coast_skip_merged_dv only a cluster moving like the report's oldest one counts as joined:
+    # these two move 13 px/s apart (two boats in one report), so the younger is coasted again
+    young, tr, co = _joined_run(True, dv=3.0)
+    assert tr.ids[co].tolist() == [young]
+    young, tr, co = _joined_run(True, dv=14.0)
+    assert not co.any()
 
 
 def test_coast_skip_merged_is_off_by_default():

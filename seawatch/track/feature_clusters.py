@@ -1650,6 +1650,7 @@ class ClusterParams:
     hand_over_dv_px_s: float = 0.0
     dv_still_px_s: float = 0.0
     coast_skip_merged: bool = False
+    coast_skip_merged_dv: float = 0.0
 
 
 class FeatureClusterer:
@@ -2497,6 +2498,8 @@ class FeatureClusterer:
                 if keep_c is not None:
                     rv = rv[keep_c]
             sticky = self._sticky_pairs(snap, labels, cids, boxes) if p.merge_keep > 0 else None
+            # each cluster's velocity relative to the scene, before the merge (coast_skip_merged_dv)
+            rv_of = {} if rv is None else {int(c): rv[i] for i, c in enumerate(cids)}
             groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
@@ -2505,7 +2508,9 @@ class FeatureClusterer:
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
-            self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g}
+            self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g[1:]
+                                if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)),
+                                                p.coast_skip_merged_dv if p.coast_skip_merged_dv > 0 else np.inf)}
         else:
             self._merged = []
         if p.relink_s > 0:
