@@ -134,7 +134,7 @@ def _two_objects(seed):
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def _joined_run(skip, dv=0.0):
+def _joined_run(skip, dv=0.0, zoom_scaled=False, zoom=1.0):
     """An older cluster on the first object and a younger one on the second, reported apart for
     0.5 s; then the older cluster's box spreads over both (one of its features moves onto the
     second object) and the two reports are joined under the older identity.  Returns the younger
@@ -142,16 +142,17 @@ def _joined_run(skip, dv=0.0):
     from seawatch.types import TrackState
 
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0,
-                                       relink_overlap=0.0, coast_skip_merged=skip, coast_skip_merged_dv=dv))
+                                       relink_overlap=0.0, coast_skip_merged=skip, coast_skip_merged_dv=dv,
+                                       coast_skip_merged_zoom=zoom_scaled))
     a, va = [[102, 61], [110, 62]], [[5, 0], [5, 0]]
     b, vb = [[151, 61], [158, 62]], [[-8, 0], [-8, 0]]
     tr = None
     for k in range(6):
         xy, v, ids = (a + b, va + vb, [1, 2, 7, 8]) if k >= 1 else (a, va, [1, 2])
-        _, tr = c.update(snap(xy, v, 0.1 * k, k, ids), _two_objects(k))
+        _, tr = c.update(snap(xy, v, 0.1 * k, k, ids), _two_objects(k), zoom=zoom)
     assert len(tr) == 2
     young = int(max(tr.ids))
-    _, tr = c.update(snap([[102, 61], [156, 62]] + b, va + vb, 0.6, 6, [1, 2, 7, 8]), _two_objects(6))
+    _, tr = c.update(snap([[102, 61], [156, 62]] + b, va + vb, 0.6, 6, [1, 2, 7, 8]), _two_objects(6), zoom=zoom)
     co = tr.states == int(TrackState.COASTING)
     return young, tr, co
 
@@ -168,6 +169,11 @@ def test_a_cluster_joined_into_another_report_is_not_coasted():
     assert tr.ids[co].tolist() == [young]
     young, tr, co = _joined_run(True, dv=14.0)
     assert not co.any()
+    # coast_skip_merged_zoom: the threshold times the zoom (3 x 5 = 15 px/s > 13)
+    young, tr, co = _joined_run(True, dv=3.0, zoom_scaled=True, zoom=5.0)
+    assert not co.any()
+    young, tr, co = _joined_run(True, dv=3.0, zoom_scaled=False, zoom=5.0)
+    assert tr.ids[co].tolist() == [young]
 
 
 def test_coast_skip_merged_is_off_by_default():

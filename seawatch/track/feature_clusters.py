@@ -1651,6 +1651,7 @@ class ClusterParams:
     dv_still_px_s: float = 0.0
     coast_skip_merged: bool = False
     coast_skip_merged_dv: float = 0.0
+    coast_skip_merged_zoom: bool = False
 
 
 class FeatureClusterer:
@@ -2500,6 +2501,9 @@ class FeatureClusterer:
             sticky = self._sticky_pairs(snap, labels, cids, boxes) if p.merge_keep > 0 else None
             # each cluster's velocity relative to the scene, before the merge (coast_skip_merged_dv)
             rv_of = {} if rv is None else {int(c): rv[i] for i, c in enumerate(cids)}
+            skip_dv = p.coast_skip_merged_dv if p.coast_skip_merged_dv > 0 else np.inf
+            if p.coast_skip_merged_zoom:
+                skip_dv *= self._zoom
             groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
@@ -2509,8 +2513,7 @@ class FeatureClusterer:
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
             self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g[1:]
-                                if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)),
-                                                p.coast_skip_merged_dv if p.coast_skip_merged_dv > 0 else np.inf)}
+                                if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), skip_dv)}
         else:
             self._merged = []
         if p.relink_s > 0:
