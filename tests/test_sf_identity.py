@@ -1,6 +1,7 @@
 """Session 20 (issue #8, one identity per boat): a lost identity goes only to a cluster whose own
 velocity agrees with the one it had when last seen (``relink_dv_px_s`` for the relink,
-``hand_over_dv_px_s`` for the hand-over; 0: off)."""
+``hand_over_dv_px_s`` for the hand-over; 0: off); an identity whose cluster is joined into another's
+report is not coasted (``coast_skip_merged``, on by default)."""
 
 import numpy as np
 
@@ -176,5 +177,6 @@ def test_a_cluster_joined_into_another_report_is_not_coasted():
     assert tr.ids[co].tolist() == [young]
 
 
-def test_coast_skip_merged_is_off_by_default():
-    assert ClusterParams().coast_skip_merged is False
+def test_coast_skip_merged_defaults():
+    p = ClusterParams()
+    assert (p.coast_skip_merged, p.coast_skip_merged_dv, p.coast_skip_merged_zoom) == (True, 3.0, True)
