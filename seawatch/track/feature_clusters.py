@@ -1532,6 +1532,17 @@ def _keep_edge(a0, a1, size, last):
     return a1 - size, a1
 
 
+def _moves_alike(v_lost, v_new, max_dv) -> bool:
+    """Whether two own velocities (px/s) differ by at most ``max_dv`` (vector difference); True
+    when either is unknown (None or not finite)."""
+    if v_lost is None or v_new is None:
+        return True
+    a, b = np.asarray(v_lost, np.float64), np.asarray(v_new, np.float64)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return True
+    return float(np.hypot(*(a - b))) <= max_dv
+
+
 @dataclass(frozen=True)
 class ClusterParams:
     """Parameters of the clustering (paper B defaults: Dmax 0.31, alpha 3, Wlink 1, R 50 px).
@@ -1632,7 +1643,17 @@ class ClusterParams:
     the growing (a large ship's dark hull and white superstructure, two clusters, stay joined).
     Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
     0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
-    none both 0.004 lower and within 2 switches (docs/stable_features.md, "Session 20")."""
+    none both 0.004 lower and within 2 switches (docs/stable_features.md, "Session 20").
+    Session 20 (one identity per boat; see docs/stable_features.md, "Session 20: one identity per boat"):
+    ``relink_dv_px_s`` / ``hand_over_dv_px_s`` (0: off): a lost identity is relinked (handed over) only
+    to a cluster whose own velocity lies within this (px/s, times the zoom) of the identity's own
+    velocity when last seen (an unknown one passes), with ``dv_still_px_s`` (0: always) only where the
+    camera's image speed at both boxes is under that (times the zoom); none of four settings passed.
+    ``coast_skip_merged`` (True; False: off): an identity whose cluster is joined into another's report
+    this frame is not coasted (its boat is in that report), with ``coast_skip_merged_dv`` (3; 0: any)
+    only when the cluster's velocity relative to the scene lies within this (px/s; times the zoom with
+    ``coast_skip_merged_zoom``, True) of the report's oldest cluster's; on the 12 tuning sequences
+    mean METE 0.4343 -> 0.4342, identity switches 65 -> 60."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1712,6 +1733,12 @@ class ClusterParams:
     box_disp_q: float = 0.0
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
+    relink_dv_px_s: float = 0.0
+    hand_over_dv_px_s: float = 0.0
+    dv_still_px_s: float = 0.0
+    coast_skip_merged: bool = True
+    coast_skip_merged_dv: float = 3.0
+    coast_skip_merged_zoom: bool = True
 
 
 class FeatureClusterer:
@@ -1766,6 +1793,9 @@ class FeatureClusterer:
         self._prev_vel: dict[int, np.ndarray] = {}  # reported identity -> own velocity (px/s)
         self._birth: dict[int, float] = {}  # reported identity -> first time reported
         self._lost_dir: dict[int, tuple] = {}  # lost identity -> (azimuths, elevations) of its box corners
+        self._own_now: dict = {}  # reported identity -> its own velocity this frame (NaN: unknown; hand_over_dv_px_s)
+        self._own_prev: dict = {}  # the same, the frame before
+        self._lost_v: dict = {}  # lost identity -> its own velocity when last seen (NaN: unknown; relink_dv_px_s)
         self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions, the cluster that took it)
         self._camera = None
         self._prev_camera = None
@@ -1788,6 +1818,7 @@ class FeatureClusterer:
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
+        self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
         # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
         self.coast_log: collections.deque = collections.deque(maxlen=2000)
@@ -2160,6 +2191,10 @@ class FeatureClusterer:
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
+        own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s), the camera's speed
+        own_v, cam_s = (None, None) if own_v is None else own_v
+        # for the velocity checks (relink_dv_px_s, hand_over_dv_px_s): NaN where no member has a velocity
+        own_k = None if own_v is None else np.where(np.all(np.asarray(vel) == 0, axis=1)[:, None], np.nan, own_v)
         # new clusters take lost identities, nearest pairs first, within a gate that grows with
         # the time lost (relink_px + relink_px_per_s per second)
         pairs = []
@@ -2177,6 +2212,8 @@ class FeatureClusterer:
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
+                    if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
+                        continue  # session 20: a boat keeps its own velocity through a loss
                     pairs.append((d, i, k))
         done = set()
         for d, i, k in sorted(pairs):
@@ -2215,17 +2252,9 @@ class FeatureClusterer:
             self._alias = {k: v for k, v in self._alias.items() if k in self._known}
         now = {int(r): boxes[i].copy() for i, r in enumerate(rep)}
         own = {}
-        if vel is not None and len(rep):
-            # the object's own velocity: its image velocity less the camera's at its centre
-            c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
-            try:
-                hinv = np.linalg.inv(h)
-                back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
-                back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
-                cam = (c - back) / max(dt, 1e-6)
-                own = {int(r): np.nan_to_num(vel[i] - cam[i]) for i, r in enumerate(rep)}
-            except np.linalg.LinAlgError:
-                own = {}
+        if vel is not None and len(rep) and own_v is not None:
+            own = {int(r): np.nan_to_num(own_v[i]) for i, r in enumerate(rep)}
+        self._own_now = {int(r): (own_k[i], cam_s[i]) for i, r in enumerate(rep)} if own_k is not None else {}
         renamed = set()  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
@@ -2242,6 +2271,8 @@ class FeatureClusterer:
                     continue
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
+                    self._lost_v[k] = self._own_prev.get(k)
                 if p.relink_appearance:  # its look in the last frame it was seen
                     self._lost_sig[k] = (None if self._app_prev_img is None
                                          else appearance_signature(self._app_prev_img, b))
@@ -2264,12 +2295,50 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
         self._prev_boxes = now
         self._prev_vel = own
+        self._own_prev = self._own_now
+        if len(self._lost_v) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
         self._prev_camera = fcam
         if p.relink_appearance:
             self._app_prev_img = self._app_img
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    @staticmethod
+    def _own_velocity(h, boxes, vel, dt):
+        """Each cluster's own velocity (px/s): its image velocity ``vel`` less the camera's motion
+        at its box's centre (the snapshot's homography ``h`` over ``dt``); NaN where the cluster's
+        velocity is unknown (no member with a velocity) is not marked.  Returns it with the camera's
+        image speed at each box's centre (px/s); None without ``vel`` or when ``h`` cannot be
+        inverted."""
+        if vel is None or not len(boxes):
+            return None
+        c = np.stack([boxes[:, 0] + 0.5 * boxes[:, 2], boxes[:, 1] + 0.5 * boxes[:, 3]], axis=1)
+        try:
+            hinv = np.linalg.inv(h)
+        except np.linalg.LinAlgError:
+            return None
+        back = (hinv[:2, :2] @ c.T).T + hinv[:2, 2]
+        back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
+        cam = (c - back) / max(dt, 1e-6)
+        return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
+
+    def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
+        """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
+        (px/s; the camera's image speed at its box ``cam_new``) may take lost identity ``k``: the
+        two own velocities differ by at most ``max_dv`` times the zoom.  True when either is
+        unknown and, with ``dv_still_px_s``, when the camera moved faster than that (times the
+        zoom) at either box (a pan: the own velocities are unreliable then)."""
+        e = self._lost_v.get(k)
+        if e is None or v_new is None:
+            return True
+        v_lost, cam_lost = e
+        z = self._zoom
+        still = self.params.dv_still_px_s
+        if still > 0 and not (cam_lost <= still * z and cam_new <= still * z):
+            return True
+        return _moves_alike(v_lost, v_new, max_dv * z)
 
     def _looks_alike(self, k, i, cids, boxes, t, sig_new) -> bool:
         """``relink_appearance``: whether new cluster ``i`` (its box ``boxes[i]`` in this frame's
@@ -2307,6 +2376,9 @@ class FeatureClusterer:
             ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
             small = min(b[2] * b[3], lb[2] * lb[3])
             o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
+            if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
+                    k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
+                continue  # session 20: a neighbour moving otherwise is another boat
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
@@ -2378,6 +2450,7 @@ class FeatureClusterer:
         dts = float(getattr(snap, "dt_s", float("nan")))
         if np.isfinite(dts) and dts > 0:
             self._dts = (self._dts + [dts])[-9:]
+        self._joined_ids = set()
         if n == 0:
             self._merged = []
             self._last_fi = fi
@@ -2514,6 +2587,11 @@ class FeatureClusterer:
                 if keep_c is not None:
                     rv = rv[keep_c]
             sticky = self._sticky_pairs(snap, labels, cids, boxes) if p.merge_keep > 0 else None
+            # each cluster's velocity relative to the scene, before the merge (coast_skip_merged_dv)
+            rv_of = {} if rv is None else {int(c): rv[i] for i, c in enumerate(cids)}
+            skip_dv = p.coast_skip_merged_dv if p.coast_skip_merged_dv > 0 else np.inf
+            if p.coast_skip_merged_zoom:
+                skip_dv *= self._zoom
             groups = []
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
@@ -2521,6 +2599,9 @@ class FeatureClusterer:
                                                          p.merge_keep_gap_h, self._apart or None)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
+            # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
+            self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g[1:]
+                                if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), skip_dv)}
         else:
             self._merged = []
         if p.relink_s > 0:
@@ -2546,7 +2627,10 @@ class FeatureClusterer:
 
     def _with_coasts(self, tracks: Tracks, snap: FeatureSnapshot, image=None) -> Tracks:
         """``tracks`` with the coasting identities appended (:meth:`_coast`)."""
-        ids, boxes, vel = self._coast(snap, tracks.boxes, image, set(int(i) for i in tracks.ids))
+        present = set(int(i) for i in tracks.ids)
+        if self.params.coast_skip_merged:  # a cluster joined into another's report: its boat is in that report
+            present |= self._joined_ids
+        ids, boxes, vel = self._coast(snap, tracks.boxes, image, present)
         if not len(ids):
             return tracks
         t = snap.t_s
