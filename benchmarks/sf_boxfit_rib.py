@@ -18,8 +18,6 @@ Example (tuning seeds only; seeds 0, 3, 4 are refused)::
 """
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import sys
 
@@ -27,38 +25,23 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+from sf_diagnose import replay_parser, replay_setup  # noqa: E402
 
-EVAL_SEEDS = {0, 3, 4}
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_boxfit_rib.py", description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenario")
-    ap.add_argument("seed", type=int)
+    ap = replay_parser("sf_boxfit_rib.py", __doc__)
     ap.add_argument("--boat", type=int, default=3)
     ap.add_argument("--tol", type=float, default=2.0)
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--cache", required=True)
     ap.add_argument("--show", type=int, default=0, help="print the members of every N-th matched frame")
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print("sf_boxfit_rib: seeds 0, 3, 4 are evaluation seeds", file=sys.stderr)
+    setup = replay_setup(args, "sf_boxfit_rib")
+    if setup is None:
         return 2
-    import cv2
-
+    scn, trk, recorded = setup
     import seawatch.track.feature_clusters as fc
-    from sf_diagnose import _process, mete_pairs, snapshot_cache
-    from seawatch.detect.features import StableFeatureExtractor
-    from seawatch.sim import make_scenario
+    from sf_diagnose import _process, mete_pairs
 
-    cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = fc.StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), fc.ClusterParams(**json.loads(args.params)),
-                                  camera=scn.camera, horizon="camera")
-    _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
-    if recorded is None:
-        print("no cache", file=sys.stderr)
-        return 2
     seen = {}
     orig_out = fc.FeatureClusterer._outputs
     orig_disp = fc.FeatureClusterer._disp_members

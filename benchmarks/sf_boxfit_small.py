@@ -10,9 +10,7 @@ Example (tuning seeds only)::
 """
 from __future__ import annotations
 
-import argparse
 import collections
-import json
 import os
 import sys
 
@@ -20,32 +18,20 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-EVAL_SEEDS = {0, 3, 4}
+from sf_diagnose import replay_parser, replay_setup  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_boxfit_small.py", description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenario")
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--cache", required=True)
+    ap = replay_parser("sf_boxfit_small.py", __doc__)
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print("sf_boxfit_small: seeds 0, 3, 4 are evaluation seeds", file=sys.stderr)
+    setup = replay_setup(args, "sf_boxfit_small")
+    if setup is None:
         return 2
-    import cv2
-
+    scn, trk, recorded = setup
     import seawatch.track.feature_clusters as fc
     from sf_boxfit_diag import _inside
-    from sf_diagnose import _process, mete_pairs, snapshot_cache
-    from seawatch.detect.features import StableFeatureExtractor
-    from seawatch.sim import make_scenario
+    from sf_diagnose import _process, mete_pairs
 
-    cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = fc.StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), fc.ClusterParams(**json.loads(args.params)),
-                                  camera=scn.camera, horizon="camera")
-    _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
     seg_orig, one_orig, grow_orig = fc._segment_object, fc._grow_one, fc.grow_boxes
     st = {}
 

@@ -25,7 +25,6 @@ Example (tuning seeds only; 0, 3, 4 are refused)::
 """
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import os
@@ -34,9 +33,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from sf_diagnose import _process, mete_pairs, parse_params, snapshot_cache  # noqa: E402
-
-EVAL_SEEDS = {0, 3, 4}
+from sf_diagnose import _process, mete_pairs, replay_parser, replay_setup  # noqa: E402
 
 
 def _classify(box, label, wake, refl, water_row):
@@ -60,39 +57,16 @@ def _classify(box, label, wake, refl, water_row):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_clutter_diag.py", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n\n", 1)[1])
-    ap.add_argument("scenario")
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--params", default="{}", help="JSON object of ClusterParams fields, with the extractor's "
-                    "under \"ext\" (default {})")
-    ap.add_argument("--cache", required=True, metavar="DIR", help="sf_diagnose.py's snapshot cache")
+    ap = replay_parser("sf_clutter_diag.py", __doc__)
     ap.add_argument("--every", type=int, default=5, help="classify the pixels every N-th frame (default 5)")
     ap.add_argument("--json", default=None, metavar="FILE", help="append one JSON line with the figures")
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print(f"sf_clutter_diag: seed {args.seed} is an evaluation seed", file=sys.stderr)
+    setup = replay_setup(args, "sf_clutter_diag")
+    if setup is None:
         return 2
-    kw = parse_params(args.params, "sf_clutter_diag")
-    if kw is None:
-        return 2
-    ext_kw = kw.pop("ext", {})
-    import cv2
-
-    from seawatch.detect.features import StableFeatureExtractor
-    from seawatch.sim import make_scenario
-    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
+    scn, trk, recorded = setup
     from seawatch.types import TrackState
 
-    cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps, **ext_kw), ClusterParams(**kw),
-                               camera=scn.camera)
-    _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, ext_kw, "camera")
-    if recorded is None:
-        print("sf_clutter_diag: no snapshots in the cache (run sf_diagnose.py --cache first)", file=sys.stderr)
-        return 2
     no_wake = scn.with_render_options(wakes=False)
     no_refl = scn.with_render_options(reflections=False)
     paired_ids: set = set()

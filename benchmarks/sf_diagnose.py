@@ -106,6 +106,55 @@ def parse_params(text: str, prog: str) -> dict | None:
     return kw
 
 
+
+EVAL_SEEDS = {0, 3, 4}  # the bench's evaluation seeds: the diagnosis scripts refuse them
+
+
+def replay_parser(prog: str, doc: str, cache_required: bool = True) -> argparse.ArgumentParser:
+    """The arguments the replay scripts share (scenario, seed, ``--params``, ``--cache``); the
+    script's docstring gives the description (its first paragraph) and the epilog (the rest)."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog=doc.split("\n\n", 1)[1] if "\n\n" in doc else None)
+    ap.add_argument("scenario")
+    ap.add_argument("seed", type=int)
+    ap.add_argument("--params", default="{}", help="JSON object of ClusterParams fields, with the extractor's "
+                    "under \"ext\" (default {})")
+    ap.add_argument("--cache", required=cache_required, default=None, metavar="DIR",
+                    help="sf_diagnose.py's snapshot cache")
+    return ap
+
+
+def replay_setup(args, prog: str):
+    """The scenario, the default stage with ``--params`` and the cached snapshots (None without
+    ``--cache``) for a replay script; None, with the reason on stderr, for an evaluation seed, bad
+    ``--params`` or a cache without this sequence."""
+    if args.seed in EVAL_SEEDS:
+        print(f"{prog}: seed {args.seed} is an evaluation seed", file=sys.stderr)
+        return None
+    kw = parse_params(args.params, prog)
+    if kw is None:
+        return None
+    ext_kw = kw.pop("ext", {})
+    import cv2
+
+    from seawatch.detect.features import StableFeatureExtractor
+    from seawatch.sim import make_scenario
+    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
+
+    cv2.setNumThreads(1)
+    scn = make_scenario(args.scenario, seed=args.seed)
+    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps, **ext_kw), ClusterParams(**kw),
+                               camera=scn.camera, horizon="camera")
+    recorded = None
+    if args.cache:
+        _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, ext_kw, "camera")
+        if recorded is None:
+            print(f"{prog}: no snapshots in the cache for this sequence; run sf_diagnose.py with --cache first",
+                  file=sys.stderr)
+            return None
+    return scn, trk, recorded
+
 def main(argv=None) -> int:
     args = _parse(argv)
     kw = parse_params(args.params, "sf_diagnose")
@@ -339,24 +388,20 @@ def _print_breakdown(gt, pred, frames, kinds, fps, segment_s):
               f"beyond count {a3 / (hi - lo):.3f}")
 
 
-def _print_switches(gt, pred, frames, kinds, fps):
-    """Each identity switch as CLEAR MOT counts it (IoU >= 0.3, a boat keeps its last identity
-    when that one still matches), with what happened to the old identity and where the new one
-    came from."""
+def clear_matches(gt, pred, frames):
+    """The boat-report matches of each frame as CLEAR MOT's identity switches count them (IoU >= 0.3,
+    a boat keeps the identity it last had while that one still matches): yields ``(k, a, b, g, r,
+    last)`` for frame ``k``, boat row ``a`` (identity ``g``) matched to report row ``b`` (identity
+    ``r``), ``last`` the boat's previous ``(identity, frame)`` or None; a switch is ``last[0] != r``.
+    ``pred[k]`` starts with the report identities and boxes."""
     from scipy.optimize import linear_sum_assignment
 
     from seawatch.eval import box_iou
 
     last = {}  # boat -> (identity, frame index of that match)
-    first_seen = {}  # identity -> first frame reported
-    covered = {}  # identity -> last boat it was matched to
-    print("identity switches (t, boat, old -> new identity):")
-    n = 0
     for k in frames:
         gi, gb = gt[k]
-        pi, pb = pred[k]
-        for r in pi:
-            first_seen.setdefault(int(r), k)
+        pi, pb = pred[k][0], pred[k][1]
         if not len(gi) or not len(pi):
             continue
         iou = box_iou(gb, pb)
@@ -367,22 +412,40 @@ def _print_switches(gt, pred, frames, kinds, fps):
             if score[a, b] <= 0:
                 continue
             g, r = int(gi[a]), int(pi[b])
-            if g in last and last[g][0] != r:
-                old, kf = last[g]
-                n += 1
-                where = "gone"
-                if old in set(int(x) for x in pi):
-                    j = int(np.flatnonzero(pi == old)[0])
-                    io = box_iou(gb, pb[j:j + 1])[:, 0]
-                    a2 = int(np.argmax(io)) if len(io) else -1
-                    where = (f"still reported, IoU {io[a]:.2f} with this boat"
-                             + (f", on boat {int(gi[a2])} (IoU {io[a2]:.2f})" if a2 >= 0 and a2 != a and io[a2] > 0.1 else ""))
-                before = covered.get(r)
-                print(f"  {k / fps:6.1f} s  boat {g:3d} ({kinds[g]}, h {gb[a, 3]:.0f} px): {old} -> {r}; "
-                      f"old last matched {(k - kf) / fps:.1f} s ago, {where}; new one reported since "
-                      f"{(k - first_seen[r]) / fps:.1f} s" + (f", before on boat {before}" if before not in (None, g) else ""))
+            yield k, a, b, g, r, last.get(g)
             last[g] = (r, k)
-            covered[r] = g
+
+
+def _print_switches(gt, pred, frames, kinds, fps):
+    """Each identity switch as CLEAR MOT counts it (:func:`clear_matches`), with what happened to
+    the old identity and where the new one came from."""
+    from seawatch.eval import box_iou
+
+    first_seen = {}  # identity -> first frame reported
+    for k in frames:
+        for r in pred[k][0]:
+            first_seen.setdefault(int(r), k)
+    covered = {}  # identity -> last boat it was matched to
+    print("identity switches (t, boat, old -> new identity):")
+    n = 0
+    for k, a, b, g, r, prev in clear_matches(gt, pred, frames):
+        gi, gb = gt[k]
+        pi, pb = pred[k]
+        if prev is not None and prev[0] != r:
+            old, kf = prev
+            n += 1
+            where = "gone"
+            if old in set(int(x) for x in pi):
+                j = int(np.flatnonzero(pi == old)[0])
+                io = box_iou(gb, pb[j:j + 1])[:, 0]
+                a2 = int(np.argmax(io)) if len(io) else -1
+                where = (f"still reported, IoU {io[a]:.2f} with this boat"
+                         + (f", on boat {int(gi[a2])} (IoU {io[a2]:.2f})" if a2 >= 0 and a2 != a and io[a2] > 0.1 else ""))
+            before = covered.get(r)
+            print(f"  {k / fps:6.1f} s  boat {g:3d} ({kinds[g]}, h {gb[a, 3]:.0f} px): {old} -> {r}; "
+                  f"old last matched {(k - kf) / fps:.1f} s ago, {where}; new one reported since "
+                  f"{(k - first_seen[r]) / fps:.1f} s" + (f", before on boat {before}" if before not in (None, g) else ""))
+        covered[r] = g
     print(f"  {n} switches")
 
 

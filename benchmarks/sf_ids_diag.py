@@ -35,7 +35,6 @@ Example::
 """
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import os
@@ -44,9 +43,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from sf_diagnose import _process, parse_params, snapshot_cache  # noqa: E402
-
-EVAL_SEEDS = {0, 3, 4}
+from sf_diagnose import _process, clear_matches, replay_parser, replay_setup  # noqa: E402
 
 
 def _gap(b, lb):
@@ -55,44 +52,20 @@ def _gap(b, lb):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_ids_diag.py", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n\n", 1)[1])
-    ap.add_argument("scenario")
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--params", default="{}", help="JSON object of ClusterParams fields (default {})")
-    ap.add_argument("--cache", default=None, metavar="DIR", help="sf_diagnose.py's snapshot cache")
+    ap = replay_parser("sf_ids_diag.py", __doc__, cache_required=False)
     ap.add_argument("--json", default=None, metavar="FILE", help="append one JSON line with the counts")
     ap.add_argument("--quiet", action="store_true", help="print only the counts")
     ap.add_argument("--trace", default="", metavar="IDS",
                     help="comma-separated identities: print each frame's state of each (reported, its cluster and box; "
                          "lost, since when and the box expected)")
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print(f"sf_ids_diag: seed {args.seed} is an evaluation seed", file=sys.stderr)
+    setup = replay_setup(args, "sf_ids_diag")
+    if setup is None:
         return 2
-    kw = parse_params(args.params, "sf_ids_diag")
-    if kw is None:
-        return 2
-    import cv2
-    from scipy.optimize import linear_sum_assignment
-
-    from seawatch.detect.features import StableFeatureExtractor
+    scn, trk, recorded = setup
     from seawatch.eval import box_iou
-    from seawatch.sim import make_scenario
-    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
     from seawatch.types import TrackState
 
-    cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), ClusterParams(**kw), camera=scn.camera)
-    recorded = None
-    if args.cache:
-        _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
-        if recorded is None:
-            print("sf_ids_diag: no snapshots in the cache for this sequence; run sf_diagnose.py with --cache first",
-                  file=sys.stderr)
-            return 2
     c = trk.clusterer
     p = c.params
     rec: dict = {}  # per frame: reported id -> (cluster id, box), lost id -> (time lost, box), hand-overs
@@ -151,31 +124,19 @@ def main(argv=None) -> int:
         for r, v in rec[k].get("rep", {}).items():
             birth_f.setdefault(r, k)
             cluster_f.setdefault(v[0], k)
-    last: dict = {}
     covered: dict = {}
     causes = collections.Counter()
     rows = []
-    for k in frames:
+    for k, a, b, g, r, prev in clear_matches(gt, pred, frames):
         gi, gb = gt[k]
         pi, pb, ps = pred[k]
-        if not len(gi) or not len(pi):
-            continue
-        iou = box_iou(gb, pb)
-        score = np.where(iou >= 0.3 - 1e-9, iou, 0.0)
-        bonus = np.array([[1000.0 if last.get(int(g), (None,))[0] == int(r) else 0.0 for r in pi] for g in gi])
-        rr, cc = linear_sum_assignment(-(score + bonus * (score > 0)))
-        for a, b in zip(rr, cc):
-            if score[a, b] <= 0:
-                continue
-            g, r = int(gi[a]), int(pi[b])
-            if g in last and last[g][0] != r:
-                old, kf = last[g]
-                cause, extra = classify(old, r, a, b, g, k, kf, gi, gb, pi, pb, ps, rec, birth_f, covered, p,
-                                        TrackState, box_iou, frames, cluster_f)
-                causes[cause] += 1
-                rows.append(dict(t=k / fps, boat=g, kind=kinds[g], old=old, new=r, cause=cause, extra=extra))
-            last[g] = (r, k)
-            covered[r] = g
+        if prev is not None and prev[0] != r:
+            old, kf = prev
+            cause, extra = classify(old, r, a, b, g, k, kf, gi, gb, pi, pb, ps, rec, birth_f, covered, p,
+                                    TrackState, box_iou, frames, cluster_f)
+            causes[cause] += 1
+            rows.append(dict(t=k / fps, boat=g, kind=kinds[g], old=old, new=r, cause=cause, extra=extra))
+        covered[r] = g
     if not args.quiet:
         for w in rows:
             print(f"  {w['t']:6.1f} s boat {w['boat']:3d} ({w['kind']}): {w['old']} -> {w['new']}: {w['cause']}"

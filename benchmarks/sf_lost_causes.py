@@ -24,7 +24,6 @@ Example::
 """
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import os
@@ -33,45 +32,20 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from sf_diagnose import _process, mete_pairs, parse_params, snapshot_cache  # noqa: E402
-
-EVAL_SEEDS = {0, 3, 4}
+from sf_diagnose import _process, mete_pairs, replay_parser, replay_setup  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="sf_lost_causes.py", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n\n", 1)[1])
-    ap.add_argument("scenario")
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--params", default="{}", help="JSON object of ClusterParams fields (default {})")
-    ap.add_argument("--cache", default=None, metavar="DIR", help="sf_diagnose.py's snapshot cache")
+    ap = replay_parser("sf_lost_causes.py", __doc__, cache_required=False)
     ap.add_argument("--json", default=None, metavar="FILE", help="append one JSON line with the parts")
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print(f"sf_lost_causes: seed {args.seed} is an evaluation seed", file=sys.stderr)
+    setup = replay_setup(args, "sf_lost_causes")
+    if setup is None:
         return 2
-    kw = parse_params(args.params, "sf_lost_causes")
-    if kw is None:
-        return 2
-    import cv2
-
-    from seawatch.detect.features import StableFeatureExtractor
+    scn, trk, recorded = setup
     from seawatch.eval import box_iou
-    from seawatch.sim import make_scenario
-    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
     from seawatch.types import TrackState
 
-    cv2.setNumThreads(1)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), ClusterParams(**kw), camera=scn.camera)
-    recorded = record = None
-    if args.cache:
-        path, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
-        if recorded is None:
-            print("sf_lost_causes: no snapshots in the cache for this sequence; run sf_diagnose.py with --cache "
-                  "first", file=sys.stderr)
-            return 2
     parts = collections.Counter()
     outcomes = collections.Counter()
     ended: dict[int, str] = {}  # identity -> outcome of its coast's last look
@@ -80,7 +54,7 @@ def main(argv=None) -> int:
     coast_clutter = 0.0
     n_frames = 0
     for i, (f, g) in enumerate(scn.iter_frames()):
-        tr = _process(trk, f, None if recorded is None else recorded[i], record)
+        tr = _process(trk, f, None if recorded is None else recorded[i], None)
         c = trk.clusterer
         now = [e for e in c.coast_log if e[0] == f.t_s]
         for _, k, _, why in now:

@@ -118,7 +118,7 @@ def main(argv=None) -> int:
     import cv2
 
     from seawatch.detect.features import StableFeatureExtractor
-    from seawatch.eval import box_iou, mete
+    from seawatch.eval import mete
     from seawatch.sim import make_scenario
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
     from sf_diagnose import _process, mete_pairs, snapshot_cache  # this folder is on the path as a script
