@@ -258,19 +258,18 @@ def _process(trk, frame, snap=None, record=None):
     """``trk.process(frame)`` with the extractor's snapshot given (``snap``: replay) or kept
     (``record``, a list that receives it pickled); the same steps as
     ``StableFeatureTracker.process``.  Returns the tracks."""
-    from seawatch.track.feature_clusters import camera_at
     from seawatch.types import TrackState
 
-    trk._frame_camera = camera_at(trk.camera, frame)[0] if trk.camera is not None else None
-    hz = trk._horizon(frame)
-    zoom = float(frame.ptz.zoom) if (frame.ptz is not None and trk.camera is not None) else 1.0
-    # the extractor's input (the rendered frame, the horizon it is given, the zoom): a replay whose
-    # input differs from the recording's (the simulator or the horizon code changed) is refused
+    hz, zoom, prior = trk.extractor_inputs(frame)
+    # the extractor's input (the rendered frame, the horizon it is given, the zoom; the motion
+    # prior when the extractor uses it): a replay whose input differs from the recording's (the
+    # simulator or the horizon code changed) is refused
+    used = None if trk.extractor.motion_prior == "off" or prior is None else np.round(prior, 9).tobytes()
     digest = hashlib.sha1(frame.image.tobytes() + repr(
         None if hz is None else (hz.y_left, hz.y_right, hz.width) if hasattr(hz, "y_left") else hz).encode()
-        + repr(zoom).encode()).hexdigest()
+        + repr(zoom).encode() + (b"" if used is None else used)).hexdigest()
     if snap is None:
-        snap = trk.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
+        snap = trk.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom, motion_prior=prior)
         if record is not None:
             record.append((digest, pickle.dumps(snap, protocol=pickle.HIGHEST_PROTOCOL)))
     else:

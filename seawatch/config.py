@@ -128,6 +128,7 @@ class TrackerSettings:
     sf_max_keypoints: int = 200  # keypoints described per frame (SIFT cost)
     sf_min_speed_px_s: float = 1.5  # slower feature velocities count as static
     sf_horizon: str = "camera"  # camera | detect | auto | off: where the water is (docs/stable_features.md)
+    sf_motion_prior: str = "off"  # off | fallback | always: the camera motion from the PTZ telemetry (docs/stable_features.md)
 
 
 @dataclass(frozen=True)
@@ -216,6 +217,7 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
 # (section dataclass, key) -> (dotted name, allowed values)
 _CHOICES: dict[tuple[str, str], tuple[str, tuple[str, ...]]] = {
     ("TrackerSettings", "sf_horizon"): ("tracker.sf_horizon", ("camera", "detect", "auto", "off")),
+    ("TrackerSettings", "sf_motion_prior"): ("tracker.sf_motion_prior", ("off", "fallback", "always")),
     ("DetectorSettings", "cascade_scanner"): ("detector.cascade_scanner", ("auto", "numba", "opencv")),
 }
 

@@ -170,6 +170,17 @@ class CameraModel:
     def with_intrinsics(self, intrinsics: Intrinsics) -> "CameraModel":
         return CameraModel(intrinsics, self.pose, self.refraction_k)
 
+    def rotation_homography(self, other: "CameraModel") -> np.ndarray:
+        """The image motion from this camera to ``other`` when it turns and zooms about its centre:
+        the (3, 3) homography ``H`` with ``p_other ~ H @ p_this`` (pixels ``[u, v, 1]``).
+
+        Exact for a pan/tilt/zoom head (the same position; what :meth:`with_ptz` changes) and a
+        pinhole lens; lens distortion is ignored and a change of position is treated as a pure
+        rotation (right for a distant scene).  ``other`` may be of another image size.
+        """
+        h = other.intrinsics.matrix @ other.R.T @ self.R @ np.linalg.inv(self.intrinsics.matrix)
+        return h / h[2, 2]
+
     # ------------------------------------------------------- camera-frame helpers
     def _distort(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = self.intrinsics.dist

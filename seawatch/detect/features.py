@@ -527,6 +527,21 @@ class StableFeatureExtractor:
         When the horizon is given, fit the camera motion to the stable features above it (sky,
         coast) when there are enough of them, and to all stable features otherwise (not in the
         paper, whose mean is over all stable features, boats included).
+    motion_prior : {"off", "fallback", "always"}
+        Use of the camera motion predicted from the pan/tilt/zoom telemetry (the ``motion_prior``
+        homography that :meth:`process` is given; not in the paper).  "off" (default): ignored.
+        "fallback": where fewer than ``min_camera_matches`` stable matches lie above the horizon
+        (or no horizon is given), the camera motion is the prior, moved by the median residual
+        of the stable matches above the horizon that lie within ``prior_px`` of it (when there are
+        ``prior_min_matches`` of them): the water's features, which drift with the waves, no
+        longer vote for the camera.  "always": the same in every frame, the prior's inliers above
+        the horizon being fitted by the camera model when there are ``min_camera_matches`` of
+        them.  Frames without a prior keep the fit.
+    prior_px : float
+        Inlier distance to the prior, working-image pixels per frame, times the zoom (the
+        telemetry's error grows with the focal length).
+    prior_min_matches : int
+        Inliers above the horizon needed to correct the prior's translation.
     guided_px : float
         Guided matching (not in the paper, whose FLANN search is over every active feature):
         a keypoint is matched against the active features expected within ``guided_px`` plus
@@ -647,6 +662,9 @@ class StableFeatureExtractor:
         band_max_keypoints: int = 150,
         band_grid_cells: tuple[int, int] = (16, 2),
         scene_motion: bool = True,
+        motion_prior: str = "off",
+        prior_px: float = 1.5,
+        prior_min_matches: int = 3,
         guided_px: float = 10.0,
         band_describe_upscaled: bool = False,
         band_min_size_px: float = 0.0,
@@ -709,6 +727,13 @@ class StableFeatureExtractor:
         self.band_max_keypoints = int(band_max_keypoints)
         self.band_grid_cells = (int(band_grid_cells[0]), int(band_grid_cells[1]))
         self.scene_motion = bool(scene_motion)
+        if motion_prior not in ("off", "fallback", "always"):
+            raise ValueError(f"features: motion_prior must be off, fallback or always, not {motion_prior!r}")
+        if not prior_px > 0 or prior_min_matches < 1:
+            raise ValueError("features: prior_px must be > 0 and prior_min_matches >= 1")
+        self.motion_prior = str(motion_prior)
+        self.prior_px = float(prior_px)
+        self.prior_min_matches = int(prior_min_matches)
         self.guided_px = float(guided_px)
         self.guided_min_quality = float(guided_min_quality)
         self.dedup_px = float(dedup_px)
@@ -1110,6 +1135,30 @@ class StableFeatureExtractor:
             return mean_h, False
         return h, ok
 
+    def _prior_motion(self, prior: np.ndarray, src: np.ndarray, dst: np.ndarray, stable: np.ndarray,
+                      scene: np.ndarray | None, zoom: float) -> tuple[np.ndarray, bool]:
+        """The camera motion with a telemetry prior (``motion_prior`` "fallback" or "always"):
+        only the stable matches above the horizon that agree with the prior within ``prior_px``
+        (times the zoom) vote; enough of them (``min_camera_matches``) are fitted by the camera
+        model ("always"; "fallback" fits all stable matches above the horizon as without a
+        prior), fewer move the prior by their median residual, none leave it as it is."""
+        above = stable if scene is None else stable & scene
+        if self.motion_prior == "fallback" and scene is not None and above.sum() >= self.min_camera_matches:
+            return self._camera_motion(src, dst, stable, scene)
+        if scene is None:  # without a horizon nothing tells the scene from the water
+            above = np.zeros_like(stable)
+        res = dst - _apply_h(prior, src)
+        inl = above & (np.linalg.norm(res, axis=1) <= self.prior_px * zoom)
+        if self.motion_prior == "always" and inl.sum() >= self.min_camera_matches:
+            h, ok = self._camera_motion(src[inl], dst[inl], np.ones(int(inl.sum()), bool))
+            if ok:
+                return h, True
+        h = prior.copy()
+        if inl.sum() >= self.prior_min_matches:
+            shift = np.median(res[inl], axis=0)
+            h = np.array([[1.0, 0.0, shift[0]], [0.0, 1.0, shift[1]], [0.0, 0.0, 1.0]]) @ h
+        return h, True
+
     def _maybe_homography(self, s: np.ndarray, d: np.ndarray, h_sim: np.ndarray, inl: np.ndarray) -> np.ndarray:
         """The similarity, or a homography where the static features cover enough of the image
         to pin its perspective terms down and it explains the matches better.
@@ -1197,7 +1246,7 @@ class StableFeatureExtractor:
 
     # ----------------------------------------------------------------- main
     def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None,
-                horizon=None, zoom: float = 1.0) -> FeatureSnapshot:
+                horizon=None, zoom: float = 1.0, motion_prior=None) -> FeatureSnapshot:
         """Detect, describe and match the features of one frame; update the active set.
 
         Parameters
@@ -1211,6 +1260,10 @@ class StableFeatureExtractor:
             above it first (``scene_motion``); None: the paper's single pass.
         zoom : float, the camera's zoom factor (1 at its widest), kept in the snapshot for the
             clustering's water margin.
+        motion_prior : (3, 3) array, optional: the camera's image motion from the previous frame
+            to this one predicted from its telemetry, in source pixels (e.g.
+            :meth:`seawatch.camera.model.CameraModel.rotation_homography`); used as the
+            ``motion_prior`` setting says.
 
         Raises
         ------
@@ -1267,7 +1320,18 @@ class StableFeatureExtractor:
             if line is not None and self.scene_motion:
                 wk = max(grey.shape[1] - 1, 1)
                 scene = src[:, 1] < line[0] + (line[1] - line[0]) * src[:, 0] / wk - 1.0
-            h, motion_ok = self._camera_motion(src, dst, stable, scene)
+            prior = None
+            if motion_prior is not None and self.motion_prior != "off":
+                prior = np.asarray(motion_prior, np.float64)
+                if prior.shape != (3, 3) or not np.all(np.isfinite(prior)) or prior[2, 2] == 0:
+                    raise ValueError(f"motion_prior must be a finite 3x3 homography, got shape {prior.shape}")
+                sc = np.diag([self._scale, self._scale, 1.0])  # source -> working pixels
+                prior = sc @ prior @ np.linalg.inv(sc)
+                prior = prior / prior[2, 2]
+            if prior is not None:
+                h, motion_ok = self._prior_motion(prior, src, dst, stable, scene, max(1.0, float(zoom)))
+            else:
+                h, motion_ok = self._camera_motion(src, dst, stable, scene)
             # gate: velocity relative to the camera against the stable features' statistics
             res = (dst - _apply_h(h, src)) / dt
             ref = res[stable] if stable.sum() >= 2 else res

@@ -2810,6 +2810,24 @@ class StableFeatureTracker:
         self._frame_camera = None
         self._horizon_tracker = None
 
+    def extractor_inputs(self, frame: Frame):
+        """What the extractor is given besides the image, for one frame (call once a frame, in
+        order): ``(horizon, zoom, motion_prior)``.  The stage's frame camera (the PTZ state or
+        pose; the relink by the camera model needs it too) is updated; ``motion_prior`` is the
+        camera's image motion from the previous frame's camera to this one's
+        (:meth:`CameraModel.rotation_homography`), None without a camera model or on the first
+        frame of a size."""
+        prev = self._frame_camera
+        self._frame_camera = camera_at(self.camera, frame)[0] if self.camera is not None else None
+        hz = self._horizon(frame)
+        zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
+        prior = None
+        cur = self._frame_camera
+        if prev is not None and cur is not None and \
+                (prev.intrinsics.width, prev.intrinsics.height) == (cur.intrinsics.width, cur.intrinsics.height):
+            prior = prev.rotation_homography(cur)
+        return hz, zoom, prior
+
     def _horizon(self, frame: Frame):
         """The sea horizon of this frame: from the camera model at the frame's PTZ state (or
         pose) when the stage has a camera, otherwise from the image (paper A's detector,
@@ -2841,6 +2859,7 @@ class StableFeatureTracker:
         ext = StableFeatureExtractor(
             max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)),
             nominal_fps=float(fps) if fps and fps > 0 else 25.0,
+            motion_prior=str(getattr(settings, "sf_motion_prior", "off")),
         )
         params = ClusterParams(
             dmax=float(getattr(settings, "sf_dmax", 0.31)),
@@ -2854,6 +2873,7 @@ class StableFeatureTracker:
     def reset(self) -> None:
         self.extractor.reset()
         self.clusterer.reset()
+        self._frame_camera = None
         if self._horizon_tracker is not None:
             self._horizon_tracker.reset()
 
@@ -2866,12 +2886,9 @@ class StableFeatureTracker:
             When the frame's image is not an image (the message names the frame).
         """
         try:
-            # this frame's camera (PTZ state or pose), whatever the horizon mode: the relink by
-            # the camera model needs it too
-            self._frame_camera = camera_at(self.camera, frame)[0] if self.camera is not None else None
-            hz = self._horizon(frame)
-            zoom = float(frame.ptz.zoom) if (frame.ptz is not None and self.camera is not None) else 1.0
-            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom)
+            hz, zoom, prior = self.extractor_inputs(frame)
+            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom,
+                                          motion_prior=prior)
         except ValueError as exc:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
         self.last_snapshot = snap
