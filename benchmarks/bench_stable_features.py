@@ -143,9 +143,13 @@ def _sim(ctx, name):
     scn = make_scenario(name, seed=0, duration_s=12.0 if ctx.quick else None)
     # the default stage, given the camera model as the pipeline gives it (the horizon at each
     # frame's PTZ state marks the water); the same without the camera; and the clustering and
-    # output additions off ("paper only": the front end's deviations stay, see _paper_only)
+    # output additions off ("paper only": the front end's deviations stay, see _paper_only); and
+    # the default stage with the camera motion from the PTZ telemetry (motion_prior "fallback",
+    # off by default; docs/stable_features.md, session 21)
     trackers = {"stable_features": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps),
                                                         camera=scn.camera),
+                "stable_features (PTZ motion prior)": StableFeatureTracker(
+                    StableFeatureExtractor(nominal_fps=scn.fps, motion_prior="fallback"), camera=scn.camera),
                 "stable_features (no camera)": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps)),
                 "stable_features (paper only)": _paper_only(scn.fps)}
     gt = {}
