@@ -1684,7 +1684,14 @@ class ClusterParams:
     this frame is not coasted (its boat is in that report), with ``coast_skip_merged_dv`` (3; 0: any)
     only when the cluster's velocity relative to the scene lies within this (px/s; times the zoom with
     ``coast_skip_merged_zoom``, True) of the report's oldest cluster's; on the 12 tuning sequences
-    mean METE 0.4343 -> 0.4342, identity switches 65 -> 60."""
+    mean METE 0.4343 -> 0.4342, identity switches 65 -> 60.
+
+    Session 21 (the cargo ship at full zoom; see ``grow_boxes``): ``grow_cover_wide`` (False: off):
+    an object that does not cover the core in the first window sends the growing on to the wide
+    window (``grow_wide_px``), as a hull reaching the window's edges does; ``grow_hint`` (False: off):
+    a cluster whose box neither window grows is looked for again where its box was grown in the
+    frame before (carried by the camera motion), in that box's union with its own, padded by
+    ``grow_hint_pad_px`` (20 px)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
