@@ -89,6 +89,21 @@ def test_the_box_grown_the_frame_before_is_looked_at_again(seed):
         assert np.array_equal(same[0], off[0]) and not same[2][0]
 
 
+def test_hint_core_refuses_a_hint_that_the_features_left():
+    img = scene2(6)
+    # the features (the core) lie outside last frame's box: they moved onto something else
+    hint = np.array([[250.0, 60.0, 160.0, 24.0]])
+    kw = dict(peak_frac=0.5, wide_grow_px=120, return_found=True, hints=hint, hint_pad_px=20)
+    anyway = grow_boxes(img, BOX2, CORE2, **kw)
+    assert anyway[2][0] and anyway[0][0].tolist() == pytest.approx(list(HULL2))  # no check: grown
+    refused = grow_boxes(img, BOX2, CORE2, hint_core=0.5, **kw)
+    assert not refused[2][0] and refused[0][0].tolist() == pytest.approx(BOX2[0].tolist())
+    # the core inside the hint: used
+    inside = grow_boxes(img, BOX2, CORE2, hint_core=0.5, **{**kw, "hints": np.array([[150.0, 60.0, 260.0, 24.0]])})
+    assert inside[2][0] and inside[0][0].tolist() == pytest.approx(list(HULL2))
+    assert ClusterParams().grow_hint_core == 0.0
+
+
 def test_a_hint_on_a_coastline_grows_nothing():
     img = scene2(4, coast=True)
     hint = np.array([[150.0, 60.0, 260.0, 24.0]])
