@@ -104,6 +104,23 @@ def test_hint_core_refuses_a_hint_that_the_features_left():
     assert ClusterParams().grow_hint_core == 0.0
 
 
+def test_hint_core_x_counts_the_columns_only():
+    img = scene2(7)
+    img[84:104, 150:410] = 50  # the hull's reflection below it
+    # last frame's box ends at the waterline, the core reaches down into the reflection below it:
+    # a third of the core's height lies inside the box, all of its width
+    hint = np.array([[150.0, 60.0, 260.0, 24.0]])
+    core = np.array([[160.0, 76.0, 40.0, 24.0]])
+    box = core + [[-2.0, -2.0, 4.0, 4.0]]
+    kw = dict(peak_frac=0.5, wide_grow_px=120, return_found=True, hints=hint, hint_pad_px=20, hint_core=0.5)
+    assert not grow_boxes(img, box, core, **kw)[2][0]
+    got = grow_boxes(img, box, core, hint_core_x=True, **kw)
+    assert got[2][0] and got[0][0].tolist() == pytest.approx([150, 60, 260, 44])  # hull and reflection
+    # beside the hint (the ir 8 case): refused on the columns too
+    assert not grow_boxes(img, BOX2, CORE2, hint_core_x=True, **{**kw, "hints": np.array([[250.0, 60.0, 160.0, 24.0]])})[2][0]
+    assert ClusterParams().grow_hint_core_x is False
+
+
 def test_a_hint_on_a_coastline_grows_nothing():
     img = scene2(4, coast=True)
     hint = np.array([[150.0, 60.0, 260.0, 24.0]])

@@ -903,7 +903,7 @@ def grow_boxes(
     cut_core_frac: float = 0.0, cut_core_undo: bool = False, wake_thick: bool = False,
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
-    hint_core: float = 0.0,
+    hint_core: float = 0.0, hint_core_x: bool = False,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1002,6 +1002,10 @@ def grow_boxes(
         A hint is used only when at least this fraction of the core's area lies inside it (0: any;
         session 21): the features are still on the object that was grown; a cluster whose features
         moved onto a neighbouring boat would otherwise be grown over both.
+    hint_core_x : bool
+        ``hint_core`` on the columns only: the fraction of the core's width inside the hint's (the
+        features on a hull's reflection lie below its grown box, which the waterline cut ends at
+        the waterline).
     wake_thick : bool
         The wake cut measures each column by its number of foreground pixels (its thickness)
         instead of its height from its top foreground pixel to the object's bottom (not in the
@@ -1048,7 +1052,7 @@ def grow_boxes(
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
-                and (hint_core <= 0 or _inside_frac(cores[n], hints[n]) >= hint_core)):
+                and (hint_core <= 0 or _inside_frac(cores[n], hints[n], hint_core_x) >= hint_core)):
             # the box grown in the frame before (carried by the camera): look where it was
             hb = hints[n]
             ux0, uy0 = min(x, hb[0]), min(y, hb[1])
@@ -1069,10 +1073,13 @@ def grow_boxes(
     return (out, contrast) if return_contrast else out
 
 
-def _inside_frac(a, b) -> float:
-    """The fraction of box ``a``'s area (``x, y, w, h``; sides at least 1 px) that lies inside box ``b``."""
+def _inside_frac(a, b, x_only=False) -> float:
+    """The fraction of box ``a``'s area (``x, y, w, h``; sides at least 1 px) that lies inside box ``b``
+    (``x_only``: of its width inside ``b``'s columns)."""
     aw, ah = max(a[2], 1.0), max(a[3], 1.0)
     iw = min(a[0] + aw, b[0] + b[2]) - max(a[0], b[0])
+    if x_only:
+        return max(iw, 0.0) / aw
     ih = min(a[1] + ah, b[1] + b[3]) - max(a[1], b[1])
     return max(iw, 0.0) * max(ih, 0.0) / (aw * ah)
 
@@ -1706,7 +1713,8 @@ class ClusterParams:
     a cluster whose box neither window grows is looked for again where its box was grown in the
     frame before (carried by the camera motion), in that box's union with its own, padded by
     ``grow_hint_pad_px`` (20 px), and with ``grow_hint_core`` > 0 only when at least that fraction of
-    the core (the box members' extent) lies inside that box."""
+    the core (the box members' extent) lies inside that box (``grow_hint_core_x``: of the core's
+    width inside that box's columns)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1796,6 +1804,7 @@ class ClusterParams:
     grow_hint: bool = False
     grow_hint_pad_px: float = 20.0
     grow_hint_core: float = 0.0
+    grow_hint_core_x: bool = False
 
 
 class FeatureClusterer:
@@ -2607,7 +2616,7 @@ class FeatureClusterer:
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
-                hint_core=p.grow_hint_core)
+                hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
