@@ -5,9 +5,10 @@ Replays the stage on the snapshot cache (as ``sf_ids_diag.py``) and prints, for 
 the boat (``--boat``, default: the scenario's cargo ship) is in view at least ``--min-w`` px wide,
 its ground-truth box and each cluster whose features' box overlaps it: the cluster, its box
 members, the box before the growing, the core (the members' extent), the grown box, the outcome
-of each growing try (``ok``, ``flat``: the core does not stand out, ``none``: nothing touches the
-core or the window is full, ``edge``: the components reach the window's left or right edge,
-``cover``: the object does not cover the core; ``W`` marks the 120 px wider window), then the
+of each growing try (``seg-ok``: grown, ``flat``: the core does not stand out, ``none``: the window
+is full or empty, ``3``: nothing touches the core, ``edge``: the components touching the core all
+reach the window's left or right edge, ``cover``: the object does not cover the core; ``W`` marks
+the wide window, ``H`` the window of the last frame's box, ``grow_hint``), then the
 reports (identity, box, IoU with the boat, the clusters joined into it).  The summary counts,
 per cluster, how often its grown box is the whole boat (IoU >= 0.5) and how often a fragment.
 
@@ -51,10 +52,23 @@ def main(argv=None) -> int:
     orig_grow, orig_seg, orig_merge = fc.grow_boxes, fc._segment_object, fc._merge_overlapping
     names = {1: "none", 2: "edge"}
 
+    orig_one = fc._grow_one
+    wide_px = trk.clusterer.params.grow_wide_px
+
     def seg(dev, thr, max_fill, r0, r1, q0, q1, le, re):
         out = orig_seg(dev, thr, max_fill, r0, r1, q0, q1, le, re)
-        cur.setdefault("seg", []).append(int(out[0]))
+        if cur.get("seg"):
+            cur["seg"][-1][1] = names.get(int(out[0]), "seg-ok" if out[0] == 0 else str(int(out[0])))
         return out
+
+    def one(img, box, core_box, gx, *a, **kw):
+        # which window: the first, the wide one (gx = grow_wide_px) or the hint's (grow_hint)
+        s_ = cur.setdefault("seg", [])
+        s_.append(["" if not s_ else ("W" if gx == wide_px else "H"), "flat"])
+        r = orig_one(img, box, core_box, gx, *a, **kw)
+        if r[0] is None and s_[-1][1] == "seg-ok":
+            s_[-1][1] = "cover"  # segmented, but the object does not cover the core
+        return r
 
     def grow(img, boxes, cores, **kw):
         if "hints" not in kw:  # the coasting's growing: not recorded
@@ -79,7 +93,7 @@ def main(argv=None) -> int:
         out = orig_merge(cids, boxes, *a, **kw)
         return out
 
-    fc.grow_boxes, fc._segment_object, fc._merge_overlapping = grow, seg, merge
+    fc.grow_boxes, fc._segment_object, fc._merge_overlapping, fc._grow_one = grow, seg, merge, one
     orig_rel = c._relink
 
     def relink(snap, cids, boxes, vel=None):
@@ -124,8 +138,8 @@ def main(argv=None) -> int:
                 ok = bool(res[n][2][0])
                 iou = float(box_iou(gb[None], gbx[None])[0, 0])
                 t = []
-                for j, code in enumerate(tries[n]):
-                    t.append(("" if j == 0 else "W" if j == 1 else "H") + ("seg-ok" if code == 0 else names.get(code, str(code))))
+                for w_, code in tries[n]:
+                    t.append(w_ + code)
                 cid = int(cids[n]) if n < len(cids) else -1
                 if ok:
                     (whole if iou >= 0.5 else frag)[cid] += 1
