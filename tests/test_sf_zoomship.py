@@ -101,7 +101,6 @@ def test_hint_core_refuses_a_hint_that_the_features_left():
     # the core inside the hint: used
     inside = grow_boxes(img, BOX2, CORE2, hint_core=0.5, **{**kw, "hints": np.array([[150.0, 60.0, 260.0, 24.0]])})
     assert inside[2][0] and inside[0][0].tolist() == pytest.approx(list(HULL2))
-    assert ClusterParams().grow_hint_core == 0.0
 
 
 def test_hint_core_x_counts_the_columns_only():
@@ -142,12 +141,14 @@ def hull_frames(params, img):
 
 
 def test_the_clusterer_keeps_the_hull_box_with_grow_hint_only():
-    assert ClusterParams().grow_hint is False and ClusterParams().grow_cover_wide is False
+    # on by default (session 21: grow_hint with grow_hint_core 0.5); grow_cover_wide off
+    assert ClusterParams().grow_hint is True and ClusterParams().grow_hint_core == 0.5
+    assert ClusterParams().grow_cover_wide is False and ClusterParams().grow_hint_core_x is False
     img = scene2(5)
     p = dict(confirm_s=0.0, relink_s=0.0, coast_s=0.0, waterline_frac=0.0, wake_frac=0.0, top_frac=0.0)
-    b0, b1 = hull_frames(ClusterParams(**p), img)
+    b0, b1 = hull_frames(ClusterParams(grow_hint=False, **p), img)
     assert b0.tolist() == pytest.approx(list(HULL2))  # all the features: the hull in the first window
     assert b1[2] < 50  # the stern's features only: the features' extent
-    h0, h1 = hull_frames(ClusterParams(grow_hint=True, **p), img)
+    h0, h1 = hull_frames(ClusterParams(**p), img)
     assert h0.tolist() == pytest.approx(list(HULL2))
     assert h1.tolist() == pytest.approx(list(HULL2))  # looked for where the hull was

@@ -1709,12 +1709,13 @@ class ClusterParams:
 
     Session 21 (the cargo ship at full zoom; see ``grow_boxes``): ``grow_cover_wide`` (False: off):
     an object that does not cover the core in the first window sends the growing on to the wide
-    window (``grow_wide_px``), as a hull reaching the window's edges does; ``grow_hint`` (False: off):
+    window (``grow_wide_px``), as a hull reaching the window's edges does; ``grow_hint`` (True; False: off):
     a cluster whose box neither window grows is looked for again where its box was grown in the
     frame before (carried by the camera motion), in that box's union with its own, padded by
-    ``grow_hint_pad_px`` (20 px), and with ``grow_hint_core`` > 0 only when at least that fraction of
-    the core (the box members' extent) lies inside that box (``grow_hint_core_x``: of the core's
-    width inside that box's columns)."""
+    ``grow_hint_pad_px`` (20 px), and with ``grow_hint_core`` (0.5; 0: any) only when at least that
+    fraction of the core (the box members' extent) lies inside that box (``grow_hint_core_x``, False:
+    of the core's width inside that box's columns).  On the 12 tuning sequences ``grow_hint`` with
+    ``grow_hint_core`` 0.5 gave mean METE 0.4325 -> 0.4172, identity switches 53 -> 49."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1801,9 +1802,9 @@ class ClusterParams:
     coast_skip_merged_dv: float = 3.0
     coast_skip_merged_zoom: bool = True
     grow_cover_wide: bool = False
-    grow_hint: bool = False
+    grow_hint: bool = True
     grow_hint_pad_px: float = 20.0
-    grow_hint_core: float = 0.0
+    grow_hint_core: float = 0.5
     grow_hint_core_x: bool = False
 
 
