@@ -1653,7 +1653,20 @@ class ClusterParams:
     this frame is not coasted (its boat is in that report), with ``coast_skip_merged_dv`` (3; 0: any)
     only when the cluster's velocity relative to the scene lies within this (px/s; times the zoom with
     ``coast_skip_merged_zoom``, True) of the report's oldest cluster's; on the 12 tuning sequences
-    mean METE 0.4343 -> 0.4342, identity switches 65 -> 60."""
+    mean METE 0.4343 -> 0.4342, identity switches 65 -> 60.
+    Session 21 (one identity per boat on ``ir``; see docs/stable_features.md, "Session 21"):
+    ``hand_over_size_ratio`` (0: off): a lost identity is not handed over
+    (:meth:`FeatureClusterer._hand_over`) to a report whose box is more than this many times the
+    area of the identity's last box (a small boat passing a larger one lies inside the larger one's
+    grown box: the rib's 18 x 6 px box in the fishing boat's 21 x 27 px one);
+    ``relink_min_area`` (0: off): a lost identity is not relinked to a new cluster whose box is less
+    than this fraction of the lost box's area (carried through the zoom; a large boat's identity on
+    a small boat or a fragment);
+    ``relink_alt_s`` (0: off): when the cluster that took a lost identity by a relink dies within
+    this many seconds of the relink (and after ``relink_min_s``), the identity is lost where that
+    cluster died and also, as an alternative, where it was expected before the relink (with the
+    time lost of that earlier loss); a later relink may take it at either place
+    (:meth:`FeatureClusterer._relink`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1739,6 +1752,9 @@ class ClusterParams:
     coast_skip_merged: bool = True
     coast_skip_merged_dv: float = 3.0
     coast_skip_merged_zoom: bool = True
+    hand_over_size_ratio: float = 0.0
+    relink_min_area: float = 0.0
+    relink_alt_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -1797,6 +1813,9 @@ class FeatureClusterer:
         self._own_prev: dict = {}  # the same, the frame before
         self._lost_v: dict = {}  # lost identity -> its own velocity when last seen (NaN: unknown; relink_dv_px_s)
         self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions, the cluster that took it)
+        self._lost_alt: dict = {}  # lost identity -> (time lost, box, velocity): where it was expected before a relink undone late (relink_alt_s)
+        self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
+        self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -2174,20 +2193,26 @@ class FeatureClusterer:
         # lost identities follow the camera (and, for relink_predict_s, their own last velocity);
         # with the camera model, their directions are projected through this frame's camera
         fcam = self._camera if p.relink_camera else None
-        kept = {}
-        for k, (tl, b, v) in self._lost.items():
-            if t - tl > p.relink_s:
-                self._lost_dir.pop(k, None)
-                continue
-            d = self._lost_dir.get(k) if fcam is not None else None
-            nb_ = None
-            if d is not None:
-                el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
-                u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
-                if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
-                    nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
-            kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
-        self._lost = kept
+
+        def expect(lost, dirs):
+            kept = {}
+            for k, (tl, b, v) in lost.items():
+                if t - tl > p.relink_s:
+                    dirs.pop(k, None)
+                    continue
+                d = dirs.get(k) if fcam is not None else None
+                nb_ = None
+                if d is not None:
+                    el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
+                    u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
+                    if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
+                        nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
+                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
+            return kept
+
+        self._lost = expect(self._lost, self._lost_dir)
+        if self._lost_alt:  # relink_alt_s: the places expected before a relink undone late
+            self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
@@ -2205,10 +2230,17 @@ class FeatureClusterer:
                     continue
                 d = gap_px(boxes[i], lb)
                 gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                alt = self._lost_alt.get(k)
+                if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
+                    d_alt = gap_px(boxes[i], alt[1])
+                    if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
+                        d, gate, lb = d_alt, np.inf, alt[1]
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
+                if p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * lb[2] * lb[3]:
+                    continue  # session 21: a large boat's identity is not given to a much smaller cluster
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
@@ -2223,10 +2255,14 @@ class FeatureClusterer:
             rep[i] = k
             present.add(k)
             done.add(i)
-            if p.relink_min_s > 0:  # kept to give the identity back if this cluster dies young
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # kept to give the identity back if this cluster dies young
                 self._relinked[k] = (t, self._lost[k], self._lost_dir.get(k), int(cids[i]))
+            if p.relink_alt_s > 0:
+                self._relinked_alt[k] = (self._lost_alt.get(k), self._lost_alt_dir.get(k))
             del self._lost[k]
             self._lost_dir.pop(k, None)
+            self._lost_alt.pop(k, None)
+            self._lost_alt_dir.pop(k, None)
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
         # duplicate falls back to its own identity, or to a new one when that is taken too (a
         # cluster identity that came back, e.g. after an unmerge, while another cluster carries it)
@@ -2259,6 +2295,7 @@ class FeatureClusterer:
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
                 back = self._relinked.pop(k, None)
+                back_alt = self._relinked_alt.pop(k, None)
                 if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
                     # the cluster that took k died within relink_min_s: k is lost as it was before,
                     # and that cluster no longer carries k (should it come back through the graph's
@@ -2268,7 +2305,25 @@ class FeatureClusterer:
                     self._lost[k] = back[1]
                     if back[2] is not None:
                         self._lost_dir[k] = back[2]
+                    if back_alt is not None and back_alt[0] is not None:
+                        self._lost_alt[k] = back_alt[0]
+                        if back_alt[1] is not None:
+                            self._lost_alt_dir[k] = back_alt[1]
                     continue
+                self._lost_alt.pop(k, None)
+                self._lost_alt_dir.pop(k, None)
+                if back is not None and p.relink_alt_s > 0 and t - back[0] <= p.relink_alt_s + 1e-9:
+                    # session 21: the cluster that took k died soon after the relink: k is lost here,
+                    # and also still where it was expected before that relink (the older place of a
+                    # chain of such relinks; carried on with the earlier time lost)
+                    if back_alt is not None and back_alt[0] is not None:
+                        self._lost_alt[k] = back_alt[0]
+                        if back_alt[1] is not None:
+                            self._lost_alt_dir[k] = back_alt[1]
+                    else:
+                        self._lost_alt[k] = back[1]
+                        if back[2] is not None:
+                            self._lost_alt_dir[k] = back[2]
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
@@ -2293,11 +2348,17 @@ class FeatureClusterer:
                         renamed.add(r)
                         self._lost.pop(r, None)
                         self._lost_dir.pop(r, None)
+                        self._lost_alt.pop(r, None)
+                        self._lost_alt_dir.pop(r, None)
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
         if len(self._lost_v) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
+        if len(self._relinked_alt) > 2 * len(self._relinked) + 16:  # bounded memory
+            self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
+        if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
+            self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
         if p.relink_appearance:
             self._app_prev_img = self._app_img
@@ -2379,6 +2440,9 @@ class FeatureClusterer:
             if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
                     k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
                 continue  # session 20: a neighbour moving otherwise is another boat
+            if o >= best_o and self.params.hand_over_size_ratio > 0 and (
+                    b[2] * b[3] > self.params.hand_over_size_ratio * lb[2] * lb[3]):
+                continue  # session 21: a small boat's identity is not given to a much larger one
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
@@ -2391,6 +2455,8 @@ class FeatureClusterer:
             own[k] = own.pop(r)
         del self._lost[k]
         self._lost_dir.pop(k, None)
+        self._lost_alt.pop(k, None)
+        self._lost_alt_dir.pop(k, None)
         return r
 
     @property
