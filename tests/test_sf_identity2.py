@@ -15,6 +15,7 @@ EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 def test_defaults_are_off():
     p = ClusterParams()
     assert p.hand_over_size_ratio == 0.0 and p.relink_min_area == 0.0 and p.relink_alt_s == 0.0
+    assert not p.relink_area_same_zoom
 
 
 def _small_inside_large(**kw):
@@ -45,17 +46,17 @@ def test_hand_over_refused_to_a_much_larger_report():
     assert now == [small]  # within 40 times its area: handed over as before
 
 
-def _relink_to(new_xy, **kw):
-    """A cluster of two features at (100, 60) and (130, 70) (a 34 x 14 px box) is lost at 0.2 s;
-    at 0.5 s a cluster of two features at ``new_xy`` appears (within the relink gate).  Returns
-    (the lost identity, the new report's identity, the clusterer)."""
+def _relink_to(new_xy, zoom_now=1.0, **kw):
+    """A cluster of two features at (100, 60) and (130, 70) (a 34 x 14 px box) is lost at 0.2 s
+    (zoom 1); at 0.5 s a cluster of two features at ``new_xy`` appears (within the relink gate), at
+    zoom ``zoom_now``.  Returns (the lost identity, the new report's identity, the clusterer)."""
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0, **kw))
     vel = [[20.0, 0.0]] * 2
     _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
     c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
     for k in range(2, 5):
         c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
-    _, tr2 = c.update(snap(new_xy, vel, 0.5, 5, ids=[3, 4]))
+    _, tr2 = c.update(snap(new_xy, vel, 0.5, 5, ids=[3, 4]), zoom=zoom_now)
     assert len(tr2) == 1
     return int(tr.ids[0]), int(tr2.ids[0]), c
 
@@ -70,6 +71,19 @@ def test_relink_refused_to_a_much_smaller_cluster():
     assert now == first
     first, now, _ = _relink_to(small, relink_min_area=0.05)
     assert now == first
+
+
+def test_relink_area_check_only_at_the_same_zoom():
+    """With ``relink_area_same_zoom`` the area check applies only when the zoom is (within 5 %) the
+    one at the loss: the lost box's size is not trusted through a zoom change."""
+    small = [[110, 64], [113, 65]]
+    kw = dict(relink_min_area=0.3, relink_area_same_zoom=True)
+    first, now, _ = _relink_to(small, zoom_now=1.04, **kw)
+    assert now != first  # the same zoom: checked, refused
+    first, now, _ = _relink_to(small, zoom_now=2.0, **kw)
+    assert now == first  # the zoom changed: not checked
+    first, now, _ = _relink_to(small, zoom_now=2.0, relink_min_area=0.3)
+    assert now != first  # without relink_area_same_zoom: checked whatever the zoom
 
 
 def _flash_then_back(alt_s, back_x=70.0):

@@ -1661,7 +1661,9 @@ class ClusterParams:
     grown box: the rib's 18 x 6 px box in the fishing boat's 21 x 27 px one);
     ``relink_min_area`` (0: off): a lost identity is not relinked to a new cluster whose box is less
     than this fraction of the lost box's area (carried through the zoom; a large boat's identity on
-    a small boat or a fragment);
+    a small boat or a fragment), with ``relink_area_same_zoom`` (False: always) only when the camera's
+    zoom now is within 5 % of its zoom when the identity was lost (the lost box's size is carried
+    through a zoom change by the features' homographies, which is not reliable);
     ``relink_alt_s`` (0: off): when the cluster that took a lost identity by a relink dies within
     this many seconds of the relink (and after ``relink_min_s``), the identity is lost where that
     cluster died and also, as an alternative, where it was expected before the relink (with the
@@ -1754,6 +1756,7 @@ class ClusterParams:
     coast_skip_merged_zoom: bool = True
     hand_over_size_ratio: float = 0.0
     relink_min_area: float = 0.0
+    relink_area_same_zoom: bool = False
     relink_alt_s: float = 0.0
 
 
@@ -1816,6 +1819,7 @@ class FeatureClusterer:
         self._lost_alt: dict = {}  # lost identity -> (time lost, box, velocity): where it was expected before a relink undone late (relink_alt_s)
         self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
+        self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -2239,7 +2243,9 @@ class FeatureClusterer:
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
-                if p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * lb[2] * lb[3]:
+                if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * lb[2] * lb[3]
+                        and (not p.relink_area_same_zoom
+                             or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
                     continue  # session 21: a large boat's identity is not given to a much smaller cluster
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
@@ -2326,6 +2332,8 @@ class FeatureClusterer:
                             self._lost_alt_dir[k] = back[2]
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_area_same_zoom:
+                    self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
                 if p.relink_appearance:  # its look in the last frame it was seen
@@ -2357,6 +2365,8 @@ class FeatureClusterer:
             self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
         if len(self._relinked_alt) > 2 * len(self._relinked) + 16:  # bounded memory
             self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
+        if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
             self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
