@@ -2,7 +2,9 @@
 a small boat's identity is not handed over to a much larger report (``hand_over_size_ratio``), a
 large boat's identity is not relinked to a much smaller cluster (``relink_min_area``), and an
 identity taken by a cluster that dies soon after the relink is still expected where it was before
-that relink (``relink_alt_s``).  All off by default (0)."""
+that relink (``relink_alt_s``).  On by default: ``hand_over_height_ratio`` 3, ``relink_min_area``
+0.3 with ``relink_area_same_zoom``, ``relink_alt_s`` 3 s; ``hand_over_size_ratio`` off.  Each test
+switches off the steps it does not look at (``OFF``)."""
 
 import numpy as np
 
@@ -10,20 +12,26 @@ from _feature_snap import snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
+OFF = dict(hand_over_size_ratio=0.0, hand_over_height_ratio=0.0, relink_min_area=0.0, relink_area_same_zoom=False,
+           relink_alt_s=0.0)
 
 
-def test_defaults_are_off():
+def _params(**kw):
+    return ClusterParams(**{**OFF, **kw})
+
+
+def test_defaults():
     p = ClusterParams()
-    assert p.hand_over_size_ratio == 0.0 and p.relink_min_area == 0.0 and p.relink_alt_s == 0.0
-    assert not p.relink_area_same_zoom
+    assert p.hand_over_size_ratio == 0.0 and p.hand_over_height_ratio == 3.0
+    assert p.relink_min_area == 0.3 and p.relink_area_same_zoom and p.relink_alt_s == 3.0
 
 
 def _small_inside_large(**kw):
     """An older small cluster (two features 4 px apart, moving +20 px/s in x: an 8 x 5 px box) inside
     a younger large one (two features at (90, 50) and (130, 75), moving +20 px/s in y: 44 x 29 px),
     reported apart (no overlap merge); then the small one's features are gone."""
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=0.3, merge_overlap=0.0,
-                                       coast_s=0.0, **kw))
+    c = FeatureClusterer(_params(confirm_s=0.0, relink_s=2.0, relink_overlap=0.3, merge_overlap=0.0,
+                                 coast_s=0.0, **kw))
     xy = [[100, 60], [104, 61], [90, 50], [130, 75]]
     vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
     _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))
@@ -46,11 +54,19 @@ def test_hand_over_refused_to_a_much_larger_report():
     assert now == [small]  # within 40 times its area: handed over as before
 
 
+def test_hand_over_refused_to_a_much_taller_report():
+    """``hand_over_height_ratio``: the same by the heights (29 px against 5 px: 5.8 times)."""
+    small, large, ratio, now, c = _small_inside_large(hand_over_height_ratio=3.0)
+    assert now == [large] and small in c._lost
+    small, large, ratio, now, c = _small_inside_large(hand_over_height_ratio=6.0)
+    assert now == [small]
+
+
 def _relink_to(new_xy, zoom_now=1.0, **kw):
     """A cluster of two features at (100, 60) and (130, 70) (a 34 x 14 px box) is lost at 0.2 s
     (zoom 1); at 0.5 s a cluster of two features at ``new_xy`` appears (within the relink gate), at
     zoom ``zoom_now``.  Returns (the lost identity, the new report's identity, the clusterer)."""
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0, **kw))
+    c = FeatureClusterer(_params(confirm_s=0.0, relink_s=10.0, coast_s=0.0, **kw))
     vel = [[20.0, 0.0]] * 2
     _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
     c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
@@ -93,8 +109,7 @@ def _flash_then_back(alt_s, back_x=70.0):
     appears at x ``back_x``, within the gate of the boat's own place (20 + 38 = 58 px) and far from
     the short-lived cluster's (about 80 px; gate 20 + 4 = 24 px).  Returns (the boat's identity,
     the short-lived cluster's report, the last report, the clusterer)."""
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=30.0, coast_s=0.0, relink_min_s=0.4,
-                                       relink_alt_s=alt_s))
+    c = FeatureClusterer(_params(confirm_s=0.0, relink_s=30.0, coast_s=0.0, relink_min_s=0.4, relink_alt_s=alt_s))
     vel = [[20.0, 0.0]] * 2
     boat = [[100, 60], [110, 62]]
     _, tr = c.update(snap(boat, vel, 0.0, 0, ids=[1, 2]))
@@ -141,3 +156,24 @@ def test_relink_alt_still_takes_the_new_place():
     died (a cluster there takes it)."""
     first, reps, last, c = _flash_then_back(1.0, back_x=165.0)  # 5 px right of where it died
     assert last == [first]
+
+
+def test_defaults_act():
+    """The defaults refuse the small boat's hand-over to the taller report and the relink to the much
+    smaller cluster, and keep the place before the short relink."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=0.3, merge_overlap=0.0,
+                                       coast_s=0.0))
+    xy = [[100, 60], [104, 61], [90, 50], [130, 75]]
+    vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
+    _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))
+    c.update(snap(xy, vel, 0.1, 1, ids=[1, 2, 3, 4]))
+    _, tr2 = c.update(snap(xy[2:], vel[2:], 0.2, 2, ids=[3, 4]))
+    assert tr2.ids.tolist() == [max(tr.ids.tolist())]  # the large one keeps its own identity
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=0.0))
+    v2 = [[20.0, 0.0]] * 2
+    _, tr = c.update(snap([[100, 60], [130, 70]], v2, 0.0, 0, ids=[1, 2]))
+    c.update(snap([[100, 60], [130, 70]], v2, 0.1, 1, ids=[1, 2]))
+    for k in range(2, 5):
+        c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
+    _, tr2 = c.update(snap([[110, 64], [113, 65]], v2, 0.5, 5, ids=[3, 4]))
+    assert tr2.ids.tolist() != tr.ids.tolist()  # not relinked to the much smaller cluster

@@ -1654,17 +1654,22 @@ class ClusterParams:
     only when the cluster's velocity relative to the scene lies within this (px/s; times the zoom with
     ``coast_skip_merged_zoom``, True) of the report's oldest cluster's; on the 12 tuning sequences
     mean METE 0.4343 -> 0.4342, identity switches 65 -> 60.
-    Session 21 (one identity per boat on ``ir``; see docs/stable_features.md, "Session 21"):
+    Session 21 (one identity per boat on ``ir``; see docs/stable_features.md, "Session 21"; on by
+    default together: ``hand_over_height_ratio`` 3, ``relink_min_area`` 0.3 with
+    ``relink_area_same_zoom``, ``relink_alt_s`` 3 s; on the 12 tuning sequences mean METE 0.4325 ->
+    0.4318, identity switches 53 -> 48; ``hand_over_size_ratio`` is off):
     ``hand_over_size_ratio`` (0: off): a lost identity is not handed over
     (:meth:`FeatureClusterer._hand_over`) to a report whose box is more than this many times the
     area of the identity's last box (a small boat passing a larger one lies inside the larger one's
     grown box: the rib's 18 x 6 px box in the fishing boat's 21 x 27 px one);
-    ``relink_min_area`` (0: off): a lost identity is not relinked to a new cluster whose box is less
+    ``hand_over_height_ratio`` (3; 0: off): the same with the boxes' heights (a longer hull is not a
+    larger boat: the fragments of one ship differ more in width than in height);
+    ``relink_min_area`` (0.3; 0: off): a lost identity is not relinked to a new cluster whose box is less
     than this fraction of the lost box's area (carried through the zoom; a large boat's identity on
-    a small boat or a fragment), with ``relink_area_same_zoom`` (False: always) only when the camera's
+    a small boat or a fragment), with ``relink_area_same_zoom`` (True; False: always) only when the camera's
     zoom now is within 5 % of its zoom when the identity was lost (the lost box's size is carried
     through a zoom change by the features' homographies, which is not reliable);
-    ``relink_alt_s`` (0: off): when the cluster that took a lost identity by a relink dies within
+    ``relink_alt_s`` (3 s; 0: off): when the cluster that took a lost identity by a relink dies within
     this many seconds of the relink (and after ``relink_min_s``), the identity is lost where that
     cluster died and also, as an alternative, where it was expected before the relink (with the
     time lost of that earlier loss); a later relink may take it at either place
@@ -1755,9 +1760,10 @@ class ClusterParams:
     coast_skip_merged_dv: float = 3.0
     coast_skip_merged_zoom: bool = True
     hand_over_size_ratio: float = 0.0
-    relink_min_area: float = 0.0
-    relink_area_same_zoom: bool = False
-    relink_alt_s: float = 0.0
+    hand_over_height_ratio: float = 3.0
+    relink_min_area: float = 0.3
+    relink_area_same_zoom: bool = True
+    relink_alt_s: float = 3.0
 
 
 class FeatureClusterer:
@@ -2453,6 +2459,9 @@ class FeatureClusterer:
             if o >= best_o and self.params.hand_over_size_ratio > 0 and (
                     b[2] * b[3] > self.params.hand_over_size_ratio * lb[2] * lb[3]):
                 continue  # session 21: a small boat's identity is not given to a much larger one
+            if o >= best_o and self.params.hand_over_height_ratio > 0 and (
+                    b[3] > self.params.hand_over_height_ratio * lb[3]):
+                continue  # the same by the heights
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
