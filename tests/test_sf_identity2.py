@@ -177,3 +177,41 @@ def test_defaults_act():
         c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
     _, tr2 = c.update(snap([[110, 64], [113, 65]], v2, 0.5, 5, ids=[3, 4]))
     assert tr2.ids.tolist() != tr.ids.tolist()  # not relinked to the much smaller cluster
+
+
+def _memory_return(memory):
+    """A boat (features 1, 2 at x 100-110) is reported 0-0.1 s and lost at 0.2 s (its features no
+    longer stable); at 0.4 s the same two features are stable again at x 150-160 (the graph's label
+    memory gives their cluster its identity back, no relink) and are gone again from 1.2 s (0.8 s after the return); at 3.0 s a new cluster
+    appears at x 75-85: within the gate of the boat's first place (20 + 10 x 2.8 = 48 px; gap 15 px),
+    far from where the returned cluster died (gap 65 px, gate 20 + 18 = 38 px)."""
+    c = FeatureClusterer(_params(confirm_s=0.0, relink_s=30.0, coast_s=0.0, relink_min_s=0.4, relink_alt_s=3.0,
+                                 relink_alt_memory=memory))
+    vel = [[20.0, 0.0]] * 2
+    _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
+    c.update(snap([[100, 60], [110, 62]], vel, 0.1, 1, ids=[1, 2]))
+    fi = 2
+    for k in (2, 3):  # the features stay, not stable: no cluster, but the graph remembers their label
+        s_ = snap([[100, 60], [110, 62]], vel, 0.1 * k, fi, ids=[1, 2])
+        s_.stable = np.zeros(2, bool)
+        c.update(s_)
+        fi += 1
+    back = []
+    for k in range(4, 12):
+        _, tb = c.update(snap([[150, 60], [160, 62]], vel, 0.1 * k, fi, ids=[1, 2]))
+        back.append(tb.ids.tolist())
+        fi += 1
+    for k in range(12, 30):
+        c.update(snap(*EMPTY, 0.1 * k, fi, ids=[]))
+        fi += 1
+    _, tn = c.update(snap([[75, 60], [85, 62]], vel, 3.0, fi, ids=[5, 6]))
+    return int(tr.ids[0]), back, tn.ids.tolist(), c
+
+
+def test_relink_alt_memory_keeps_the_place_before_a_return_through_the_label_memory():
+    first, back, last, c = _memory_return(False)
+    assert all(b == [first] for b in back)  # the label memory gave the returned cluster the identity
+    assert last != [first]  # off: lost where the returned cluster died
+    first, back, last, c = _memory_return(True)
+    assert all(b == [first] for b in back)
+    assert last == [first]  # the place before the return is still expected

@@ -1673,7 +1673,9 @@ class ClusterParams:
     this many seconds of the relink (and after ``relink_min_s``), the identity is lost where that
     cluster died and also, as an alternative, where it was expected before the relink (with the
     time lost of that earlier loss); a later relink may take it at either place
-    (:meth:`FeatureClusterer._relink`)."""
+    (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
+    identity that came back through the graph's label memory (a cluster that once carried it) rather
+    than by a relink."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1764,6 +1766,7 @@ class ClusterParams:
     relink_min_area: float = 0.3
     relink_area_same_zoom: bool = True
     relink_alt_s: float = 3.0
+    relink_alt_memory: bool = False
 
 
 class FeatureClusterer:
@@ -1826,6 +1829,7 @@ class FeatureClusterer:
         self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
+        self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -2226,6 +2230,10 @@ class FeatureClusterer:
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
+        if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
+            for k in present:
+                if k in self._lost and k not in self._returned:
+                    self._returned[k] = t
         own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s), the camera's speed
         own_v, cam_s = (None, None) if own_v is None else own_v
         # for the velocity checks (relink_dv_px_s, hand_over_dv_px_s): NaN where no member has a velocity
@@ -2308,6 +2316,13 @@ class FeatureClusterer:
             if k not in now and k not in renamed:
                 back = self._relinked.pop(k, None)
                 back_alt = self._relinked_alt.pop(k, None)
+                ret = self._returned.pop(k, None)
+                mem = None
+                if (back is None and ret is not None and k in self._lost and p.relink_alt_s > 0
+                        and t - ret <= p.relink_alt_s + 1e-9):
+                    # relink_alt_memory: k came back through the label memory and is lost again soon:
+                    # its entry from before (still kept in _lost, carried on) is the place to keep
+                    mem = ((self._lost[k], self._lost_dir.get(k)), (self._lost_alt.get(k), self._lost_alt_dir.get(k)))
                 if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
                     # the cluster that took k died within relink_min_s: k is lost as it was before,
                     # and that cluster no longer carries k (should it come back through the graph's
@@ -2336,6 +2351,11 @@ class FeatureClusterer:
                         self._lost_alt[k] = back[1]
                         if back[2] is not None:
                             self._lost_alt_dir[k] = back[2]
+                elif mem is not None:  # the same for a return through the label memory
+                    e, d = mem[1] if mem[1][0] is not None else mem[0]
+                    self._lost_alt[k] = e
+                    if d is not None:
+                        self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 if p.relink_area_same_zoom:
@@ -2371,6 +2391,8 @@ class FeatureClusterer:
             self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
         if len(self._relinked_alt) > 2 * len(self._relinked) + 16:  # bounded memory
             self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
+        if len(self._returned) > 2 * len(self._lost) + 16:  # bounded memory
+            self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
