@@ -1675,7 +1675,7 @@ class ClusterParams:
     time lost of that earlier loss); a later relink may take it at either place
     (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
     identity that came back through the graph's label memory (a cluster that once carried it) rather
-    than by a relink."""
+    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
