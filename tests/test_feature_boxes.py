@@ -300,7 +300,7 @@ def test_identity_taken_by_a_cluster_that_dies_young_goes_back_as_it_was_lost():
 
     def run(min_s):
         c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, relink_px=20.0, relink_px_per_s=0.0,
-                                           relink_min_s=min_s))
+                                           relink_min_s=min_s, relink_alt_s=0.0))  # session 21's alternative off
         _, tr = c.update(snap([[100, 60], [110, 62]], vel, 0.0, 0, ids=[1, 2]))
         boat = int(tr.ids[0])
         c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1, 1, ids=[]))  # lost

@@ -1715,7 +1715,30 @@ class ClusterParams:
     ``grow_hint_pad_px`` (20 px), and with ``grow_hint_core`` (0.5; 0: any) only when at least that
     fraction of the core (the box members' extent) lies inside that box (``grow_hint_core_x``, False:
     of the core's width inside that box's columns).  On the 12 tuning sequences ``grow_hint`` with
-    ``grow_hint_core`` 0.5 gave mean METE 0.4325 -> 0.4172, identity switches 53 -> 49."""
+    ``grow_hint_core`` 0.5 gave mean METE 0.4325 -> 0.4172, identity switches 53 -> 49.
+
+    Session 21 (one identity per boat on ``ir``; see docs/stable_features.md, "Session 21"; on by
+    default together: ``hand_over_height_ratio`` 3, ``relink_min_area`` 0.3 with
+    ``relink_area_same_zoom``, ``relink_alt_s`` 3 s; on the 12 tuning sequences mean METE 0.4325 ->
+    0.4318, identity switches 53 -> 48; ``hand_over_size_ratio`` is off):
+    ``hand_over_size_ratio`` (0: off): a lost identity is not handed over
+    (:meth:`FeatureClusterer._hand_over`) to a report whose box is more than this many times the
+    area of the identity's last box (a small boat passing a larger one lies inside the larger one's
+    grown box: the rib's 18 x 6 px box in the fishing boat's 21 x 27 px one);
+    ``hand_over_height_ratio`` (3; 0: off): the same with the boxes' heights (a longer hull is not a
+    larger boat: the fragments of one ship differ more in width than in height);
+    ``relink_min_area`` (0.3; 0: off): a lost identity is not relinked to a new cluster whose box is less
+    than this fraction of the lost box's area (carried through the zoom; a large boat's identity on
+    a small boat or a fragment), with ``relink_area_same_zoom`` (True; False: always) only when the camera's
+    zoom now is within 5 % of its zoom when the identity was lost (the lost box's size is carried
+    through a zoom change by the features' homographies, which is not reliable);
+    ``relink_alt_s`` (3 s; 0: off): when the cluster that took a lost identity by a relink dies within
+    this many seconds of the relink (and after ``relink_min_s``), the identity is lost where that
+    cluster died and also, as an alternative, where it was expected before the relink (with the
+    time lost of that earlier loss); a later relink may take it at either place
+    (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
+    identity that came back through the graph's label memory (a cluster that once carried it) rather
+    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1806,6 +1829,12 @@ class ClusterParams:
     grow_hint_pad_px: float = 20.0
     grow_hint_core: float = 0.5
     grow_hint_core_x: bool = False
+    hand_over_size_ratio: float = 0.0
+    hand_over_height_ratio: float = 3.0
+    relink_min_area: float = 0.3
+    relink_area_same_zoom: bool = True
+    relink_alt_s: float = 3.0
+    relink_alt_memory: bool = False
 
 
 class FeatureClusterer:
@@ -1864,6 +1893,11 @@ class FeatureClusterer:
         self._own_prev: dict = {}  # the same, the frame before
         self._lost_v: dict = {}  # lost identity -> its own velocity when last seen (NaN: unknown; relink_dv_px_s)
         self._relinked: dict[int, tuple] = {}  # relinked identity -> (time, its lost entry, its directions, the cluster that took it)
+        self._lost_alt: dict = {}  # lost identity -> (time lost, box, velocity): where it was expected before a relink undone late (relink_alt_s)
+        self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
+        self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
+        self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
+        self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -2243,23 +2277,33 @@ class FeatureClusterer:
         # lost identities follow the camera (and, for relink_predict_s, their own last velocity);
         # with the camera model, their directions are projected through this frame's camera
         fcam = self._camera if p.relink_camera else None
-        kept = {}
-        for k, (tl, b, v) in self._lost.items():
-            if t - tl > p.relink_s:
-                self._lost_dir.pop(k, None)
-                continue
-            d = self._lost_dir.get(k) if fcam is not None else None
-            nb_ = None
-            if d is not None:
-                el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
-                u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
-                if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
-                    nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
-            kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
-        self._lost = kept
+
+        def expect(lost, dirs):
+            kept = {}
+            for k, (tl, b, v) in lost.items():
+                if t - tl > p.relink_s:
+                    dirs.pop(k, None)
+                    continue
+                d = dirs.get(k) if fcam is not None else None
+                nb_ = None
+                if d is not None:
+                    el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
+                    u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
+                    if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
+                        nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
+                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
+            return kept
+
+        self._lost = expect(self._lost, self._lost_dir)
+        if self._lost_alt:  # relink_alt_s: the places expected before a relink undone late
+            self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
         present = set(int(r) for r in rep)
+        if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
+            for k in present:
+                if k in self._lost and k not in self._returned:
+                    self._returned[k] = t
         own_v = self._own_velocity(h, boxes, vel, dt)  # each cluster's own velocity (px/s), the camera's speed
         own_v, cam_s = (None, None) if own_v is None else own_v
         # for the velocity checks (relink_dv_px_s, hand_over_dv_px_s): NaN where no member has a velocity
@@ -2274,10 +2318,19 @@ class FeatureClusterer:
                     continue
                 d = gap_px(boxes[i], lb)
                 gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                alt = self._lost_alt.get(k)
+                if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
+                    d_alt = gap_px(boxes[i], alt[1])
+                    if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
+                        d, gate, lb = d_alt, np.inf, alt[1]
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
+                if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * lb[2] * lb[3]
+                        and (not p.relink_area_same_zoom
+                             or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
+                    continue  # session 21: a large boat's identity is not given to a much smaller cluster
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
@@ -2292,10 +2345,14 @@ class FeatureClusterer:
             rep[i] = k
             present.add(k)
             done.add(i)
-            if p.relink_min_s > 0:  # kept to give the identity back if this cluster dies young
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # kept to give the identity back if this cluster dies young
                 self._relinked[k] = (t, self._lost[k], self._lost_dir.get(k), int(cids[i]))
+            if p.relink_alt_s > 0:
+                self._relinked_alt[k] = (self._lost_alt.get(k), self._lost_alt_dir.get(k))
             del self._lost[k]
             self._lost_dir.pop(k, None)
+            self._lost_alt.pop(k, None)
+            self._lost_alt_dir.pop(k, None)
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
         # duplicate falls back to its own identity, or to a new one when that is taken too (a
         # cluster identity that came back, e.g. after an unmerge, while another cluster carries it)
@@ -2328,6 +2385,14 @@ class FeatureClusterer:
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
                 back = self._relinked.pop(k, None)
+                back_alt = self._relinked_alt.pop(k, None)
+                ret = self._returned.pop(k, None)
+                mem = None
+                if (back is None and ret is not None and k in self._lost and p.relink_alt_s > 0
+                        and t - ret <= p.relink_alt_s + 1e-9):
+                    # relink_alt_memory: k came back through the label memory and is lost again soon:
+                    # its entry from before (still kept in _lost, carried on) is the place to keep
+                    mem = ((self._lost[k], self._lost_dir.get(k)), (self._lost_alt.get(k), self._lost_alt_dir.get(k)))
                 if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
                     # the cluster that took k died within relink_min_s: k is lost as it was before,
                     # and that cluster no longer carries k (should it come back through the graph's
@@ -2337,9 +2402,34 @@ class FeatureClusterer:
                     self._lost[k] = back[1]
                     if back[2] is not None:
                         self._lost_dir[k] = back[2]
+                    if back_alt is not None and back_alt[0] is not None:
+                        self._lost_alt[k] = back_alt[0]
+                        if back_alt[1] is not None:
+                            self._lost_alt_dir[k] = back_alt[1]
                     continue
+                self._lost_alt.pop(k, None)
+                self._lost_alt_dir.pop(k, None)
+                if back is not None and p.relink_alt_s > 0 and t - back[0] <= p.relink_alt_s + 1e-9:
+                    # session 21: the cluster that took k died soon after the relink: k is lost here,
+                    # and also still where it was expected before that relink (the older place of a
+                    # chain of such relinks; carried on with the earlier time lost)
+                    if back_alt is not None and back_alt[0] is not None:
+                        self._lost_alt[k] = back_alt[0]
+                        if back_alt[1] is not None:
+                            self._lost_alt_dir[k] = back_alt[1]
+                    else:
+                        self._lost_alt[k] = back[1]
+                        if back[2] is not None:
+                            self._lost_alt_dir[k] = back[2]
+                elif mem is not None:  # the same for a return through the label memory
+                    e, d = mem[1] if mem[1][0] is not None else mem[0]
+                    self._lost_alt[k] = e
+                    if d is not None:
+                        self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_area_same_zoom:
+                    self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
                 if p.relink_appearance:  # its look in the last frame it was seen
@@ -2362,11 +2452,21 @@ class FeatureClusterer:
                         renamed.add(r)
                         self._lost.pop(r, None)
                         self._lost_dir.pop(r, None)
+                        self._lost_alt.pop(r, None)
+                        self._lost_alt_dir.pop(r, None)
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
         if len(self._lost_v) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_v = {k: v for k, v in self._lost_v.items() if k in self._lost}
+        if len(self._relinked_alt) > 2 * len(self._relinked) + 16:  # bounded memory
+            self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
+        if len(self._returned) > 2 * len(self._lost) + 16:  # bounded memory
+            self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
+        if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
+        if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
+            self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
         if p.relink_appearance:
             self._app_prev_img = self._app_img
@@ -2448,6 +2548,12 @@ class FeatureClusterer:
             if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
                     k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
                 continue  # session 20: a neighbour moving otherwise is another boat
+            if o >= best_o and self.params.hand_over_size_ratio > 0 and (
+                    b[2] * b[3] > self.params.hand_over_size_ratio * lb[2] * lb[3]):
+                continue  # session 21: a small boat's identity is not given to a much larger one
+            if o >= best_o and self.params.hand_over_height_ratio > 0 and (
+                    b[3] > self.params.hand_over_height_ratio * lb[3]):
+                continue  # the same by the heights
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
@@ -2460,6 +2566,8 @@ class FeatureClusterer:
             own[k] = own.pop(r)
         del self._lost[k]
         self._lost_dir.pop(k, None)
+        self._lost_alt.pop(k, None)
+        self._lost_alt_dir.pop(k, None)
         return r
 
     @property
