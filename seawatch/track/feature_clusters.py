@@ -1738,7 +1738,14 @@ class ClusterParams:
     time lost of that earlier loss); a later relink may take it at either place
     (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
     identity that came back through the graph's label memory (a cluster that once carried it) rather
-    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept)."""
+    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept);
+    ``known_min_speed_px_s`` (0: off): the speed floor (``min_speed_px_s``) follows how well the camera
+    motion is known: it is ``known_err_k`` (2) times the running error of the camera motion
+    (:attr:`FeatureClusterer.camera_err_px_s`, the median speed relative to the camera of the
+    stable features above the horizon, which are static) held between ``known_min_speed_px_s`` and
+    ``min_speed_px_s``; with no such estimate yet it stays ``min_speed_px_s`` (with the telemetry's
+    exact camera motion a slow boat, about 1 px/s, is no longer static; where the motion's error is
+    large, e.g. a mast's shake, the floor stays high)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1835,6 +1842,9 @@ class ClusterParams:
     relink_area_same_zoom: bool = True
     relink_alt_s: float = 3.0
     relink_alt_memory: bool = False
+    known_min_speed_px_s: float = 0.0
+    known_err_k: float = 2.0
+    known_err_decay: float = 0.1
 
 
 class FeatureClusterer:
@@ -1868,6 +1878,7 @@ class FeatureClusterer:
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
+        self.camera_err_px_s = float("nan")
         self._relink_reset()
         self._size_reset()
 
@@ -1932,6 +1943,7 @@ class FeatureClusterer:
     def reset(self) -> None:
         self.graph.reset()
         self.noise_px_s = float("nan")
+        self.camera_err_px_s = float("nan")
         self._relink_reset()
         self._size_reset()
 
@@ -2574,9 +2586,34 @@ class FeatureClusterer:
     def min_speed_px_s(self) -> float:
         """The speed below which a velocity sample counts as static now."""
         p = self.params
+        floor = p.min_speed_px_s
+        if p.known_min_speed_px_s > 0 and np.isfinite(self.camera_err_px_s):
+            floor = min(max(p.known_err_k * self.camera_err_px_s, p.known_min_speed_px_s), p.min_speed_px_s)
         if not np.isfinite(self.noise_px_s):
-            return p.min_speed_px_s
-        return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
+            return floor
+        return max(floor, p.noise_factor * self.noise_px_s)
+
+    def _camera_error(self, snap: FeatureSnapshot, horizon) -> None:
+        """Updates :attr:`camera_err_px_s`, the running error of the camera motion: the median
+        speed relative to the camera of this frame's matched stable features above the horizon
+        (the coast and the sky's edge, static), smoothed over the frames that have any
+        (``params.known_err_decay``, the new frame's weight)."""
+        if horizon is None:
+            return
+        st = np.flatnonzero(snap.stable & snap.matched)
+        if not len(st):
+            return
+        row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
+        up = st[np.isfinite(row) & (snap.xy[st, 1] < row)]
+        if not len(up):
+            return
+        v = np.hypot(snap.velocity[up, 0], snap.velocity[up, 1])
+        v = v[np.isfinite(v)]
+        if not len(v):
+            return
+        e = float(np.median(v))
+        a = float(self.params.known_err_decay)
+        self.camera_err_px_s = e if not np.isfinite(self.camera_err_px_s) else (1 - a) * self.camera_err_px_s + a * e
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
                horizon=None, zoom: float = 1.0, camera=None) -> tuple[Detections, Tracks]:
@@ -2595,6 +2632,8 @@ class FeatureClusterer:
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
             self.noise_px_s = nz if not np.isfinite(self.noise_px_s) else 0.9 * self.noise_px_s + 0.1 * nz
+        if p.known_min_speed_px_s > 0:
+            self._camera_error(snap, horizon)
         st = np.flatnonzero(snap.stable)
         still = None
         if horizon is not None and p.still_radius_px > 0 and len(st):
