@@ -99,3 +99,31 @@ def test_no_horizon_no_estimate():
     c, n_det = _run(_params(known_min_speed_px_s=0.8), coast_speed=0.1, horizon=False)
     assert not np.isfinite(c.camera_err_px_s)
     assert c.min_speed_px_s == pytest.approx(1.5) and max(n_det) == 0
+
+
+def _with_h(s, dx):
+    """The snapshot ``s`` with a camera motion of ``dx`` px a frame (a pure translation)."""
+    h = np.eye(3)
+    h[0, 2] = dx
+    s.homography = h
+    return s
+
+
+def test_still_gate_lowers_floor_only_with_still_camera():
+    p = _params(known_min_speed_px_s=0.8, known_still_px=0.1)
+    hz = _Level(50)
+    # a panning camera (2 px a frame): no estimate, the floor stays, no cluster
+    c = FeatureClusterer(p)
+    n = [len(c.update(_with_h(_scene(k, 0.1), 2.0), horizon=hz)[0]) for k in range(12)]
+    assert not np.isfinite(c.camera_err_px_s) and c.min_speed_px_s == pytest.approx(1.5) and max(n) == 0
+    # the same camera still: the estimate and the lower floor find the boat
+    c = FeatureClusterer(p)
+    n = [len(c.update(_with_h(_scene(k, 0.1), 0.01), horizon=hz)[0]) for k in range(12)]
+    assert c.camera_err_px_s == pytest.approx(0.1) and c.min_speed_px_s == pytest.approx(0.8) and n[-1] == 1
+    # it pans again: the estimate is kept but the floor is back at 1.5 while it pans
+    c.update(_with_h(_scene(12, 3.0), 2.0), horizon=hz)
+    assert c.camera_err_px_s == pytest.approx(0.1) and c.min_speed_px_s == pytest.approx(1.5)
+    # without the gate (known_still_px 0) the panning frames measure and lower it too
+    c = FeatureClusterer(_params(known_min_speed_px_s=0.8))
+    c.update(_with_h(_scene(0, 0.1), 2.0), horizon=hz)
+    assert c.min_speed_px_s == pytest.approx(0.8)

@@ -1745,7 +1745,10 @@ class ClusterParams:
     stable features above the horizon, which are static) held between ``known_min_speed_px_s`` and
     ``min_speed_px_s``; with no such estimate yet it stays ``min_speed_px_s`` (with the telemetry's
     exact camera motion a slow boat, about 1 px/s, is no longer static; where the motion's error is
-    large, e.g. a mast's shake, the floor stays high)."""
+    large, e.g. a mast's shake, the floor stays high); ``known_still_px`` (0: off) measures that error and
+    lowers the floor only in frames where the camera is still by its motion (the frame's homography moves
+    the image centre by less than this many pixels; a panning camera's coast tells little of the error
+    in its dwells, where a mast shakes)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1845,6 +1848,7 @@ class ClusterParams:
     known_min_speed_px_s: float = 0.0
     known_err_k: float = 2.0
     known_err_decay: float = 0.1
+    known_still_px: float = 0.0
 
 
 class FeatureClusterer:
@@ -1879,6 +1883,7 @@ class FeatureClusterer:
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
         self.camera_err_px_s = float("nan")
+        self._cam_still = True
         self._relink_reset()
         self._size_reset()
 
@@ -1944,6 +1949,7 @@ class FeatureClusterer:
         self.graph.reset()
         self.noise_px_s = float("nan")
         self.camera_err_px_s = float("nan")
+        self._cam_still = True
         self._relink_reset()
         self._size_reset()
 
@@ -2587,7 +2593,7 @@ class FeatureClusterer:
         """The speed below which a velocity sample counts as static now."""
         p = self.params
         floor = p.min_speed_px_s
-        if p.known_min_speed_px_s > 0 and np.isfinite(self.camera_err_px_s):
+        if p.known_min_speed_px_s > 0 and np.isfinite(self.camera_err_px_s) and self._cam_still:
             floor = min(max(p.known_err_k * self.camera_err_px_s, p.known_min_speed_px_s), p.min_speed_px_s)
         if not np.isfinite(self.noise_px_s):
             return floor
@@ -2597,7 +2603,18 @@ class FeatureClusterer:
         """Updates :attr:`camera_err_px_s`, the running error of the camera motion: the median
         speed relative to the camera of this frame's matched stable features above the horizon
         (the coast and the sky's edge, static), smoothed over the frames that have any
-        (``params.known_err_decay``, the new frame's weight)."""
+        (``params.known_err_decay``, the new frame's weight); with ``params.known_still_px`` > 0 only in
+        frames where the camera is still (:attr:`_cam_still`, set here)."""
+        p = self.params
+        self._cam_still = True
+        if p.known_still_px > 0:
+            h, w = snap.shape if snap.shape is not None else (0, 0)
+            H = np.asarray(snap.homography, np.float64)
+            c = np.array([w / 2.0, h / 2.0, 1.0])
+            m = H @ c
+            self._cam_still = bool(abs(m[2]) > 1e-12 and np.hypot(m[0] / m[2] - c[0], m[1] / m[2] - c[1]) < p.known_still_px)
+            if not self._cam_still:
+                return
         if horizon is None:
             return
         st = np.flatnonzero(snap.stable & snap.matched)
