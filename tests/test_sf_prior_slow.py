@@ -127,3 +127,25 @@ def test_still_gate_lowers_floor_only_with_still_camera():
     c = FeatureClusterer(_params(known_min_speed_px_s=0.8))
     c.update(_with_h(_scene(0, 0.1), 2.0), horizon=hz)
     assert c.min_speed_px_s == pytest.approx(0.8)
+
+
+def test_band_keeps_floor_far_below_horizon():
+    # the boat lies 70 px below the horizon (row 50): a band of 40 px leaves it static, 80 px finds it
+    c, n_det = _run(_params(known_min_speed_px_s=0.8, known_band_px=40.0), coast_speed=0.1)
+    assert c.min_speed_px_s == pytest.approx(0.8) and max(n_det) == 0
+    c, n_det = _run(_params(known_min_speed_px_s=0.8, known_band_px=80.0), coast_speed=0.1)
+    assert n_det[-1] == 1
+
+
+def test_frame_edges_per_feature_floor():
+    from seawatch.track.feature_clusters import frame_edges
+
+    xy = np.array([[0, 0], [10, 0], [100, 0], [110, 0]], float)
+    hist = np.repeat(np.array([[1.0, 0.0]] * 4)[:, None, :], 4, axis=1)
+    i, j, _ = frame_edges(xy, hist, 0.31, 50.0, min_speed_px_s=1.5)
+    assert len(i) == 0
+    i, j, _ = frame_edges(xy, hist, 0.31, 50.0, min_speed_px_s=np.array([0.8, 0.8, 1.5, 1.5]))
+    assert list(zip(i, j)) == [(0, 1)]
+    i2, j2, d2 = frame_edges(xy, hist, 0.31, 50.0, min_speed_px_s=0.8)
+    i3, j3, d3 = frame_edges(xy, hist, 0.31, 50.0, min_speed_px_s=np.full(4, 0.8))
+    assert list(zip(i2, j2)) == list(zip(i3, j3)) == [(0, 1), (2, 3)] and np.allclose(d2, d3)

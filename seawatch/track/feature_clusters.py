@@ -148,7 +148,7 @@ def frame_edges(
     ----------
     xy : (N, 2) positions of the features.
     history : (N, W, 2) their velocity samples (px/s), NaN where not seen.
-    min_speed_px_s : float
+    min_speed_px_s : float or (N,) floats (one per feature)
         Velocity samples slower than this count as not seen (not in the paper: the direction
         of a feature that does not move relative to the scene is noise, and a small bias of the
         camera-motion estimate would otherwise line up the directions of neighbouring static
@@ -172,9 +172,12 @@ def frame_edges(
     history = np.ascontiguousarray(history, np.float64)
     raw = history
     idx = np.arange(len(xy))
-    if min_speed_px_s > 0 and len(xy):
+    floor = np.asarray(min_speed_px_s, np.float64)
+    if np.any(floor > 0) and len(xy):
+        if floor.ndim:  # one floor per feature
+            floor = floor[:, None]
         with np.errstate(invalid="ignore"):
-            slow = np.hypot(history[..., 0], history[..., 1]) < min_speed_px_s
+            slow = np.hypot(history[..., 0], history[..., 1]) < floor
         history = np.where(slow[..., None], np.nan, history)
         idx = np.flatnonzero(np.isfinite(history[..., 0]).any(axis=1))  # features seen moving
     out_i, out_j, out_d = [z], [z], [np.zeros(0)]
@@ -1748,7 +1751,9 @@ class ClusterParams:
     large, e.g. a mast's shake, the floor stays high); ``known_still_px`` (0: off) measures that error and
     lowers the floor only in frames where the camera is still by its motion (the frame's homography moves
     the image centre by less than this many pixels; a panning camera's coast tells little of the error
-    in its dwells, where a mast shakes)."""
+    in its dwells, where a mast shakes); ``known_band_px`` (0: everywhere) lowers it only for the features
+    less than this many pixels (times the zoom) below the horizon (distant slow boats; the near water's
+    drift stays static)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1849,6 +1854,7 @@ class ClusterParams:
     known_err_k: float = 2.0
     known_err_decay: float = 0.1
     known_still_px: float = 0.0
+    known_band_px: float = 0.0
 
 
 class FeatureClusterer:
@@ -2656,8 +2662,19 @@ class FeatureClusterer:
         if horizon is not None and p.still_radius_px > 0 and len(st):
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
             still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
+        floor = self.min_speed_px_s
+        if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
+            # the lowered floor only near the horizon; elsewhere the floor without this step
+            full = p.min_speed_px_s if not np.isfinite(self.noise_px_s) else \
+                max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
+            near = np.zeros(len(st), bool)
+            if horizon is not None:
+                hr = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
+                with np.errstate(invalid="ignore"):
+                    near = np.isfinite(hr) & (snap.xy[st, 1] < hr + p.known_band_px * max(float(zoom), 1e-3))
+            floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
-                                self.min_speed_px_s, still, p.still_radius_px)
+                                floor, still, p.still_radius_px)
         # indices into the snapshot
         vel = None
         if p.merge_dv_px_s > 0:
