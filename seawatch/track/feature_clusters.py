@@ -148,7 +148,7 @@ def frame_edges(
     ----------
     xy : (N, 2) positions of the features.
     history : (N, W, 2) their velocity samples (px/s), NaN where not seen.
-    min_speed_px_s : float
+    min_speed_px_s : float or (N,) floats (one per feature)
         Velocity samples slower than this count as not seen (not in the paper: the direction
         of a feature that does not move relative to the scene is noise, and a small bias of the
         camera-motion estimate would otherwise line up the directions of neighbouring static
@@ -172,9 +172,12 @@ def frame_edges(
     history = np.ascontiguousarray(history, np.float64)
     raw = history
     idx = np.arange(len(xy))
-    if min_speed_px_s > 0 and len(xy):
+    floor = np.asarray(min_speed_px_s, np.float64)
+    if np.any(floor > 0) and len(xy):
+        if floor.ndim:  # one floor per feature
+            floor = floor[:, None]
         with np.errstate(invalid="ignore"):
-            slow = np.hypot(history[..., 0], history[..., 1]) < min_speed_px_s
+            slow = np.hypot(history[..., 0], history[..., 1]) < floor
         history = np.where(slow[..., None], np.nan, history)
         idx = np.flatnonzero(np.isfinite(history[..., 0]).any(axis=1))  # features seen moving
     out_i, out_j, out_d = [z], [z], [np.zeros(0)]
@@ -1738,7 +1741,19 @@ class ClusterParams:
     time lost of that earlier loss); a later relink may take it at either place
     (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
     identity that came back through the graph's label memory (a cluster that once carried it) rather
-    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept)."""
+    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept);
+    ``known_min_speed_px_s`` (0: off): the speed floor (``min_speed_px_s``) follows how well the camera
+    motion is known: it is ``known_err_k`` (2) times the running error of the camera motion
+    (:attr:`FeatureClusterer.camera_err_px_s`, the median speed relative to the camera of the
+    stable features above the horizon, which are static) held between ``known_min_speed_px_s`` and
+    ``min_speed_px_s``; with no such estimate yet it stays ``min_speed_px_s`` (with the telemetry's
+    exact camera motion a slow boat, about 1 px/s, is no longer static; where the motion's error is
+    large, e.g. a mast's shake, the floor stays high); ``known_still_px`` (0: off) measures that error and
+    lowers the floor only in frames where the camera is still by its motion (the frame's homography moves
+    the image centre by less than this many pixels; a panning camera's coast tells little of the error
+    in its dwells, where a mast shakes); ``known_band_px`` (0: everywhere) lowers it only for the features
+    less than this many pixels (times the zoom) below the horizon (distant slow boats; the near water's
+    drift stays static)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1835,6 +1850,11 @@ class ClusterParams:
     relink_area_same_zoom: bool = True
     relink_alt_s: float = 3.0
     relink_alt_memory: bool = False
+    known_min_speed_px_s: float = 0.0
+    known_err_k: float = 2.0
+    known_err_decay: float = 0.1
+    known_still_px: float = 0.0
+    known_band_px: float = 0.0
 
 
 class FeatureClusterer:
@@ -1868,6 +1888,8 @@ class FeatureClusterer:
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
+        self.camera_err_px_s = float("nan")
+        self._cam_still = True
         self._relink_reset()
         self._size_reset()
 
@@ -1932,6 +1954,8 @@ class FeatureClusterer:
     def reset(self) -> None:
         self.graph.reset()
         self.noise_px_s = float("nan")
+        self.camera_err_px_s = float("nan")
+        self._cam_still = True
         self._relink_reset()
         self._size_reset()
 
@@ -2574,9 +2598,45 @@ class FeatureClusterer:
     def min_speed_px_s(self) -> float:
         """The speed below which a velocity sample counts as static now."""
         p = self.params
+        floor = p.min_speed_px_s
+        if p.known_min_speed_px_s > 0 and np.isfinite(self.camera_err_px_s) and self._cam_still:
+            floor = min(max(p.known_err_k * self.camera_err_px_s, p.known_min_speed_px_s), p.min_speed_px_s)
         if not np.isfinite(self.noise_px_s):
-            return p.min_speed_px_s
-        return max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
+            return floor
+        return max(floor, p.noise_factor * self.noise_px_s)
+
+    def _camera_error(self, snap: FeatureSnapshot, horizon) -> None:
+        """Updates :attr:`camera_err_px_s`, the running error of the camera motion: the median
+        speed relative to the camera of this frame's matched stable features above the horizon
+        (the coast and the sky's edge, static), smoothed over the frames that have any
+        (``params.known_err_decay``, the new frame's weight); with ``params.known_still_px`` > 0 only in
+        frames where the camera is still (:attr:`_cam_still`, set here)."""
+        p = self.params
+        self._cam_still = True
+        if p.known_still_px > 0:
+            h, w = snap.shape if snap.shape is not None else (0, 0)
+            H = np.asarray(snap.homography, np.float64)
+            c = np.array([w / 2.0, h / 2.0, 1.0])
+            m = H @ c
+            self._cam_still = bool(abs(m[2]) > 1e-12 and np.hypot(m[0] / m[2] - c[0], m[1] / m[2] - c[1]) < p.known_still_px)
+            if not self._cam_still:
+                return
+        if horizon is None:
+            return
+        st = np.flatnonzero(snap.stable & snap.matched)
+        if not len(st):
+            return
+        row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
+        up = st[np.isfinite(row) & (snap.xy[st, 1] < row)]
+        if not len(up):
+            return
+        v = np.hypot(snap.velocity[up, 0], snap.velocity[up, 1])
+        v = v[np.isfinite(v)]
+        if not len(v):
+            return
+        e = float(np.median(v))
+        a = float(self.params.known_err_decay)
+        self.camera_err_px_s = e if not np.isfinite(self.camera_err_px_s) else (1 - a) * self.camera_err_px_s + a * e
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
                horizon=None, zoom: float = 1.0, camera=None) -> tuple[Detections, Tracks]:
@@ -2595,13 +2655,26 @@ class FeatureClusterer:
         nz = getattr(snap, "noise_px_s", float("nan"))
         if np.isfinite(nz):  # running estimate of the static features' velocity noise
             self.noise_px_s = nz if not np.isfinite(self.noise_px_s) else 0.9 * self.noise_px_s + 0.1 * nz
+        if p.known_min_speed_px_s > 0:
+            self._camera_error(snap, horizon)
         st = np.flatnonzero(snap.stable)
         still = None
         if horizon is not None and p.still_radius_px > 0 and len(st):
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
             still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
+        floor = self.min_speed_px_s
+        if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
+            # the lowered floor only near the horizon; elsewhere the floor without this step
+            full = p.min_speed_px_s if not np.isfinite(self.noise_px_s) else \
+                max(p.min_speed_px_s, p.noise_factor * self.noise_px_s)
+            near = np.zeros(len(st), bool)
+            if horizon is not None:
+                hr = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
+                with np.errstate(invalid="ignore"):
+                    near = np.isfinite(hr) & (snap.xy[st, 1] < hr + p.known_band_px * max(float(zoom), 1e-3))
+            floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
-                                self.min_speed_px_s, still, p.still_radius_px)
+                                floor, still, p.still_radius_px)
         # indices into the snapshot
         vel = None
         if p.merge_dv_px_s > 0:
