@@ -201,7 +201,7 @@ def frame_edges(
 
 
 def assign_identities(
-    prev_labels: np.ndarray, comp: np.ndarray, next_id: int
+    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -211,6 +211,11 @@ def assign_identities(
     comp : (N,) int64 cluster (component) index of each feature this frame (-1: in no cluster).
     next_id : int, the next free identity (identities are issued in increasing order, so a
         smaller identity is an older one).
+    min_share : float
+        Not in the paper (0: off, the paper's rules).  A carried identity claims a component
+        only when its features there number at least this fraction of those of the identity
+        most carried in that component: one or two features remembering a dead cluster's
+        identity (the label memory) do not give that older identity to the cluster they join.
 
     Returns
     -------
@@ -236,6 +241,11 @@ def assign_identities(
     if m.any():
         lab, c = prev_labels[m], comp[m]
         pairs, counts = np.unique(np.stack([lab, c], axis=1), axis=0, return_counts=True)
+        if min_share > 0:
+            cmax = np.zeros(n_comp, np.int64)
+            np.maximum.at(cmax, pairs[:, 1], counts)
+            ok = counts >= min_share * cmax[pairs[:, 1]]
+            pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
         order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
         done_labels: set[int] = set()
@@ -333,6 +343,7 @@ class AffinityClusters:
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
+        min_share: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -344,6 +355,7 @@ class AffinityClusters:
         self.label_memory_s = float(label_memory_s)
         self.unmerge = bool(unmerge)
         self.gate_clusters = bool(gate_clusters)
+        self.min_share = float(min_share)
         self.reset()
 
     def reset(self) -> None:
@@ -489,7 +501,7 @@ class AffinityClusters:
         if self.unmerge:
             org = self._origin[slots]
             vote = np.where((lab >= 0) & (org >= 0), org, lab)
-        cids, self.next_id = assign_identities(vote, comp, self.next_id)
+        cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
@@ -1445,7 +1457,8 @@ def _box_members_nb(k, vel, n, max_dv, anchor):
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
-                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None):
+                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
+                       id_ratio=2.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -1460,9 +1473,19 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     velocities differ by at most ``max_dv`` (``max_dv`` 0: any velocity; an unknown velocity
     counts as alike); ``groups`` (a list), when given, receives the
     identities joined into each report (a list per report, in the order returned).  ``apart``:
-    pairs of identities (frozensets) never joined (a cluster and its split part)."""
+    pairs of identities (frozensets) never joined (a cluster and its split part).  ``id_dv`` (0: off,
+    the oldest identity stays; session 21, H3): with ``rel_vel``, a report joined from clusters that
+    move differently keeps the identity of the cluster holding most features (ties: the oldest), or
+    the oldest of the clusters whose velocities lie within ``id_dv`` of that one's (an unknown
+    velocity counts as alike), when that cluster holds at least ``id_ratio`` times the features of
+    the oldest (otherwise the oldest stays, so two boats of like size do not swap the identity
+    from frame to frame): a small cluster on a slow boat whose grown box covers a passing
+    boat does not give that boat its older identity.  The kept identity comes first in its
+    ``groups`` entry."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
+    n0 = count.copy()  # each cluster's own feature count and velocity, before any join
+    v0 = None if rel_vel is None or id_dv <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     sv = None if rel_vel is None or not sticky else np.asarray(rel_vel, np.float64)[order].copy()
     alive = np.ones(len(cids), bool)
@@ -1506,6 +1529,24 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 count[i] += count[j]
                 members[i] += members[j]
                 alive[j] = False
+    if v0 is not None:
+        pos = {int(c): q for q, c in enumerate(cids)}
+        cids = cids.copy()
+        for i in np.flatnonzero(alive):
+            if len(members[i]) < 2:
+                continue
+            q = [pos[c] for c in members[i]]  # oldest first
+            big = max(q, key=lambda x: (n0[x], -x))
+            if n0[big] < id_ratio * n0[q[0]]:
+                continue
+            alike = []
+            for x in q:
+                dv = v0[x] - v0[big]
+                if not (np.all(np.isfinite(dv)) and np.hypot(dv[0], dv[1]) > id_dv):
+                    alike.append(x)
+            keep = min(alike)  # the oldest that moves with the largest cluster
+            cids[i] = cids[keep]
+            members[i] = [int(cids[keep])] + [c for c in members[i] if c != int(cids[keep])]
     if groups is not None:
         groups.extend(members[i] for i in np.flatnonzero(alive))
     return cids[alive], boxes[alive], count[alive], vel[alive]
@@ -1738,7 +1779,14 @@ class ClusterParams:
     time lost of that earlier loss); a later relink may take it at either place
     (:meth:`FeatureClusterer._relink`); ``relink_alt_memory`` (False: off) does the same for a lost
     identity that came back through the graph's label memory (a cluster that once carried it) rather
-    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept)."""
+    than by a relink (on the 12 tuning sequences 0.4318 / 48 -> 0.4314 / 52: not kept).
+
+    Session 21 (helper H3, the camera motion from the telemetry on ``ir``): ``merge_id_dv_px_s`` (0:
+    off, the oldest identity stays): a report joined from overlapping clusters
+    (:func:`_merge_overlapping`) whose velocities relative to the scene differ by more than this
+    (px/s, times the zoom) keeps the identity of the cluster with most features, or the oldest of
+    the clusters moving with that one (a sailboat's two-feature cluster, whose grown box is the
+    passing ferry's, gave the ferry the sailboat's older identity)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1835,6 +1883,9 @@ class ClusterParams:
     relink_area_same_zoom: bool = True
     relink_alt_s: float = 3.0
     relink_alt_memory: bool = False
+    merge_id_dv_px_s: float = 0.0
+    merge_id_ratio: float = 2.0
+    merge_min_share: float = 0.0
 
 
 class FeatureClusterer:
@@ -1864,7 +1915,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters)
+                                      p.merge_dv_clusters, p.merge_min_share)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -1922,6 +1973,7 @@ class FeatureClusterer:
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
+        self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
         # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
         self.coast_log: collections.deque = collections.deque(maxlen=2000)
@@ -2446,7 +2498,7 @@ class FeatureClusterer:
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
                     self._lost_dir[k] = (az, el, daz, del_)
-                if p.relink_overlap > 0:
+                if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
                     if r is not None:
                         renamed.add(r)
@@ -2628,6 +2680,7 @@ class FeatureClusterer:
         if np.isfinite(dts) and dts > 0:
             self._dts = (self._dts + [dts])[-9:]
         self._joined_ids = set()
+        self._joined_apart = set()
         if n == 0:
             self._merged = []
             self._last_fi = fi
@@ -2768,7 +2821,7 @@ class FeatureClusterer:
                 keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
-            if p.merge_gap_h > 0 or p.merge_keep > 0:
+            if p.merge_gap_h > 0 or p.merge_keep > 0 or p.merge_id_dv_px_s > 0:
                 fv = member_velocity()  # each member's velocity relative to the scene
                 okv = np.isfinite(fv).all(axis=1)
                 rs = np.zeros((n, 2))
@@ -2787,12 +2840,19 @@ class FeatureClusterer:
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
-                                                         p.merge_keep_gap_h, self._apart or None)
+                                                         p.merge_keep_gap_h, self._apart or None,
+                                                         p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
             self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g[1:]
                                 if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), skip_dv)}
+            if p.merge_id_dv_px_s > 0:
+                # session 21 (H3): a cluster joined into the report of a cluster moving otherwise is
+                # another boat behind or in front of it: its identity is not handed over to that report
+                id_dv = p.merge_id_dv_px_s * self._zoom
+                self._joined_apart = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1
+                                      for c in g[1:] if not _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), id_dv)}
         else:
             self._merged = []
         if p.relink_s > 0:
