@@ -155,3 +155,26 @@ def test_graph_min_share_off_and_on():
     assert now == a_id  # the paper: the remembered older identity takes the cluster
     a_id, b_id, now = _graph_run(0.34)
     assert now == b_id
+
+
+def _gate_run(**kw):
+    """Boat A (5 features, +6 px/s) is clustered alone for two frames; then boat B (5 features,
+    +3.5 px/s) appears 15 px below it.  Returns the number of reports in the last frame."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, coast_s=0.0, merge_overlap=0.0, **kw))
+    a_xy = [[100.0 + 7 * j, 60.0] for j in range(5)]
+    b_xy = [[104.0 + 7 * j, 75.0] for j in range(5)]
+    for k in range(5):
+        xy, vel, ids = list(a_xy), [[6.0, 0.0]] * 5, list(range(1, 6))
+        if k >= 2:
+            xy += b_xy
+            vel += [[3.5, 0.0]] * 5
+            ids += list(range(11, 16))
+        _, tr = c.update(snap(xy, vel, 0.1 * k, k, ids=ids))
+    return len(tr)
+
+
+def test_gate_dv_off_uses_merge_dv_and_on_keeps_slow_neighbours_apart():
+    assert ClusterParams().gate_dv_px_s == 0.0
+    assert _gate_run() == 1  # 2.5 px/s apart: within merge_dv_px_s (3), one cluster
+    assert _gate_run(gate_dv_px_s=2.0) == 2
+    assert _gate_run(merge_dv_px_s=2.0) == 2  # the same gate through merge_dv_px_s

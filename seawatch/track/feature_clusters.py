@@ -1786,7 +1786,14 @@ class ClusterParams:
     (:func:`_merge_overlapping`) whose velocities relative to the scene differ by more than this
     (px/s, times the zoom) keeps the identity of the cluster with most features, or the oldest of
     the clusters moving with that one (a sailboat's two-feature cluster, whose grown box is the
-    passing ferry's, gave the ferry the sailboat's older identity)."""
+    passing ferry's, gave the ferry the sailboat's older identity, and the joined cluster's identity is
+    not handed over to that report); ``merge_id_ratio`` (2): only when the cluster with most features
+    holds at least this many times the oldest's (two boats of like size would swap the identity from
+    frame to frame); ``merge_min_share`` (0: off, the paper's rule): a carried identity claims a
+    graph cluster only with at least this share of the most-carried identity's features there
+    (:func:`assign_identities`; one feature remembering a dead cluster's identity through the label
+    memory renamed the passing ferry's cluster); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
+    velocity gate (:meth:`AffinityClusters.step`) alone at this value."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1886,6 +1893,7 @@ class ClusterParams:
     merge_id_dv_px_s: float = 0.0
     merge_id_ratio: float = 2.0
     merge_min_share: float = 0.0
+    gate_dv_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2660,8 +2668,9 @@ class FeatureClusterer:
             with np.errstate(invalid="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 vel = np.nanmean(snap.history, axis=1)  # recent velocity relative to the scene
+        gate_dv = p.gate_dv_px_s if p.gate_dv_px_s > 0 and p.merge_dv_px_s > 0 else p.merge_dv_px_s
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable,
-                                       velocity=vel, max_dv_px_s=p.merge_dv_px_s,
+                                       velocity=vel, max_dv_px_s=gate_dv,
                                        min_age_s=p.confirm_s)
         self._apart = set()
         if p.split_dv_px_s > 0 and len(cids):
