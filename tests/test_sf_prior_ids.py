@@ -178,3 +178,19 @@ def test_gate_dv_off_uses_merge_dv_and_on_keeps_slow_neighbours_apart():
     assert _gate_run() == 1  # 2.5 px/s apart: within merge_dv_px_s (3), one cluster
     assert _gate_run(gate_dv_px_s=2.0) == 2
     assert _gate_run(merge_dv_px_s=2.0) == 2  # the same gate through merge_dv_px_s
+
+
+def test_report_merge_id_apart_keeps_like_sized_boats_moving_differently_apart():
+    like = np.array([10, 6])
+    # off: joined under the oldest identity (like sizes)
+    assert _merge_overlapping(_CIDS, _BOXES, like, np.zeros((2, 2)), 0.25, _RV, id_dv=3.0)[0].tolist() == [3]
+    c, b, _, _ = _merge_overlapping(_CIDS, _BOXES, like, np.zeros((2, 2)), 0.25, _RV, id_dv=3.0, id_apart=True)
+    assert sorted(c.tolist()) == [3, 8] and len(b) == 2
+    # a dominant cluster (10 vs 2) is still joined, under its identity; moving alike: joined, the oldest
+    assert _merge_overlapping(_CIDS, _BOXES, _COUNT, np.zeros((2, 2)), 0.25, _RV, id_dv=3.0,
+                              id_apart=True)[0].tolist() == [8]
+    alike = np.array([[6.0, 0.0], [4.0, 0.0]])
+    assert _merge_overlapping(_CIDS, _BOXES, like, np.zeros((2, 2)), 0.25, alike, id_dv=3.0,
+                              id_apart=True)[0].tolist() == [3]
+    # without id_dv it does nothing
+    assert _merge_overlapping(_CIDS, _BOXES, like, np.zeros((2, 2)), 0.25, _RV, id_apart=True)[0].tolist() == [3]

@@ -1458,7 +1458,7 @@ def _box_members_nb(k, vel, n, max_dv, anchor):
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
                        sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
-                       id_ratio=2.0):
+                       id_ratio=2.0, id_apart=False):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -1481,11 +1481,14 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     the oldest (otherwise the oldest stays, so two boats of like size do not swap the identity
     from frame to frame): a small cluster on a slow boat whose grown box covers a passing
     boat does not give that boat its older identity.  The kept identity comes first in its
-    ``groups`` entry."""
+    ``groups`` entry.  ``id_apart`` (with ``id_dv``): two reports whose largest clusters move
+    differently and of which neither holds ``id_ratio`` times the other's features are not joined
+    (two boats of like size passing each other stay two reports)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     n0 = count.copy()  # each cluster's own feature count and velocity, before any join
     v0 = None if rel_vel is None or id_dv <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
+    pos0 = {int(c): q for q, c in enumerate(cids)}
     rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     sv = None if rel_vel is None or not sticky else np.asarray(rel_vel, np.float64)[order].copy()
     alive = np.ones(len(cids), bool)
@@ -1498,6 +1501,13 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 continue
             if apart and any(frozenset((x, y)) in apart for x in members[i] for y in members[j]):
                 continue
+            if id_apart and v0 is not None:
+                bi = max((pos0[c] for c in members[i]), key=lambda x: (n0[x], -x))
+                bj = max((pos0[c] for c in members[j]), key=lambda x: (n0[x], -x))
+                dvij = v0[bi] - v0[bj]
+                if (np.all(np.isfinite(dvij)) and np.hypot(dvij[0], dvij[1]) > id_dv
+                        and max(count[i], count[j]) < id_ratio * min(count[i], count[j])):
+                    continue  # two boats of like size moving differently
             a, b = boxes[i], boxes[j]
             iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
@@ -1792,7 +1802,10 @@ class ClusterParams:
     frame to frame); ``merge_min_share`` (0: off, the paper's rule): a carried identity claims a
     graph cluster only with at least this share of the most-carried identity's features there
     (:func:`assign_identities`; one feature remembering a dead cluster's identity through the label
-    memory renamed the passing ferry's cluster); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
+    memory renamed the passing ferry's cluster); ``merge_id_apart`` (False: off): with
+    ``merge_id_dv_px_s``, two overlapping reports whose largest clusters move differently, neither
+    holding ``merge_id_ratio`` times the other's features, are not joined (the ferry and the
+    fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
     velocity gate (:meth:`AffinityClusters.step`) alone at this value."""
 
     dmax: float = 0.31
@@ -1892,6 +1905,7 @@ class ClusterParams:
     relink_alt_memory: bool = False
     merge_id_dv_px_s: float = 0.0
     merge_id_ratio: float = 2.0
+    merge_id_apart: bool = False
     merge_min_share: float = 0.0
     gate_dv_px_s: float = 0.0
 
@@ -2850,7 +2864,8 @@ class FeatureClusterer:
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
                                                          p.merge_keep_gap_h, self._apart or None,
-                                                         p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio)
+                                                         p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
+                                                         p.merge_id_apart)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
