@@ -204,7 +204,7 @@ def frame_edges(
 
 
 def assign_identities(
-    prev_labels: np.ndarray, comp: np.ndarray, next_id: int
+    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -214,6 +214,11 @@ def assign_identities(
     comp : (N,) int64 cluster (component) index of each feature this frame (-1: in no cluster).
     next_id : int, the next free identity (identities are issued in increasing order, so a
         smaller identity is an older one).
+    min_share : float
+        Not in the paper (0: off, the paper's rules).  A carried identity claims a component
+        only when its features there number at least this fraction of those of the identity
+        most carried in that component: one or two features remembering a dead cluster's
+        identity (the label memory) do not give that older identity to the cluster they join.
 
     Returns
     -------
@@ -239,6 +244,11 @@ def assign_identities(
     if m.any():
         lab, c = prev_labels[m], comp[m]
         pairs, counts = np.unique(np.stack([lab, c], axis=1), axis=0, return_counts=True)
+        if min_share > 0:
+            cmax = np.zeros(n_comp, np.int64)
+            np.maximum.at(cmax, pairs[:, 1], counts)
+            ok = counts >= min_share * cmax[pairs[:, 1]]
+            pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
         order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
         done_labels: set[int] = set()
@@ -336,6 +346,7 @@ class AffinityClusters:
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
+        min_share: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -347,6 +358,7 @@ class AffinityClusters:
         self.label_memory_s = float(label_memory_s)
         self.unmerge = bool(unmerge)
         self.gate_clusters = bool(gate_clusters)
+        self.min_share = float(min_share)
         self.reset()
 
     def reset(self) -> None:
@@ -492,7 +504,7 @@ class AffinityClusters:
         if self.unmerge:
             org = self._origin[slots]
             vote = np.where((lab >= 0) & (org >= 0), org, lab)
-        cids, self.next_id = assign_identities(vote, comp, self.next_id)
+        cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
@@ -1448,7 +1460,8 @@ def _box_members_nb(k, vel, n, max_dv, anchor):
 
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
-                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None):
+                       sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
+                       id_ratio=2.0, id_apart=False):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -1463,9 +1476,22 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     velocities differ by at most ``max_dv`` (``max_dv`` 0: any velocity; an unknown velocity
     counts as alike); ``groups`` (a list), when given, receives the
     identities joined into each report (a list per report, in the order returned).  ``apart``:
-    pairs of identities (frozensets) never joined (a cluster and its split part)."""
+    pairs of identities (frozensets) never joined (a cluster and its split part).  ``id_dv`` (0: off,
+    the oldest identity stays; session 21, H3): with ``rel_vel``, a report joined from clusters that
+    move differently keeps the identity of the cluster holding most features (ties: the oldest), or
+    the oldest of the clusters whose velocities lie within ``id_dv`` of that one's (an unknown
+    velocity counts as alike), when that cluster holds at least ``id_ratio`` times the features of
+    the oldest (otherwise the oldest stays, so two boats of like size do not swap the identity
+    from frame to frame): a small cluster on a slow boat whose grown box covers a passing
+    boat does not give that boat its older identity.  The kept identity comes first in its
+    ``groups`` entry.  ``id_apart`` (with ``id_dv``): two reports whose largest clusters move
+    differently and of which neither holds ``id_ratio`` times the other's features are not joined
+    (two boats of like size passing each other stay two reports)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
+    n0 = count.copy()  # each cluster's own feature count and velocity, before any join
+    v0 = None if rel_vel is None or id_dv <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
+    pos0 = {int(c): q for q, c in enumerate(cids)}
     rv = None if rel_vel is None or gap_h <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     sv = None if rel_vel is None or not sticky else np.asarray(rel_vel, np.float64)[order].copy()
     alive = np.ones(len(cids), bool)
@@ -1478,6 +1504,13 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 continue
             if apart and any(frozenset((x, y)) in apart for x in members[i] for y in members[j]):
                 continue
+            if id_apart and v0 is not None:
+                bi = max((pos0[c] for c in members[i]), key=lambda x: (n0[x], -x))
+                bj = max((pos0[c] for c in members[j]), key=lambda x: (n0[x], -x))
+                dvij = v0[bi] - v0[bj]
+                if (np.all(np.isfinite(dvij)) and np.hypot(dvij[0], dvij[1]) > id_dv
+                        and max(count[i], count[j]) < id_ratio * min(count[i], count[j])):
+                    continue  # two boats of like size moving differently
             a, b = boxes[i], boxes[j]
             iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
             ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
@@ -1509,6 +1542,24 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 count[i] += count[j]
                 members[i] += members[j]
                 alive[j] = False
+    if v0 is not None:
+        pos = {int(c): q for q, c in enumerate(cids)}
+        cids = cids.copy()
+        for i in np.flatnonzero(alive):
+            if len(members[i]) < 2:
+                continue
+            q = [pos[c] for c in members[i]]  # oldest first
+            big = max(q, key=lambda x: (n0[x], -x))
+            if n0[big] < id_ratio * n0[q[0]]:
+                continue
+            alike = []
+            for x in q:
+                dv = v0[x] - v0[big]
+                if not (np.all(np.isfinite(dv)) and np.hypot(dv[0], dv[1]) > id_dv):
+                    alike.append(x)
+            keep = min(alike)  # the oldest that moves with the largest cluster
+            cids[i] = cids[keep]
+            members[i] = [int(cids[keep])] + [c for c in members[i] if c != int(cids[keep])]
     if groups is not None:
         groups.extend(members[i] for i in np.flatnonzero(alive))
     return cids[alive], boxes[alive], count[alive], vel[alive]
@@ -1753,7 +1804,24 @@ class ClusterParams:
     the image centre by less than this many pixels; a panning camera's coast tells little of the error
     in its dwells, where a mast shakes); ``known_band_px`` (0: everywhere) lowers it only for the features
     less than this many pixels (times the zoom) below the horizon (distant slow boats; the near water's
-    drift stays static)."""
+    drift stays static).
+
+    Session 21 (helper H3, the camera motion from the telemetry on ``ir``): ``merge_id_dv_px_s`` (0:
+    off, the oldest identity stays): a report joined from overlapping clusters
+    (:func:`_merge_overlapping`) whose velocities relative to the scene differ by more than this
+    (px/s, times the zoom) keeps the identity of the cluster with most features, or the oldest of
+    the clusters moving with that one (a sailboat's two-feature cluster, whose grown box is the
+    passing ferry's, gave the ferry the sailboat's older identity, and the joined cluster's identity is
+    not handed over to that report); ``merge_id_ratio`` (2): only when the cluster with most features
+    holds at least this many times the oldest's (two boats of like size would swap the identity from
+    frame to frame); ``merge_min_share`` (0: off, the paper's rule): a carried identity claims a
+    graph cluster only with at least this share of the most-carried identity's features there
+    (:func:`assign_identities`; one feature remembering a dead cluster's identity through the label
+    memory renamed the passing ferry's cluster); ``merge_id_apart`` (False: off): with
+    ``merge_id_dv_px_s``, two overlapping reports whose largest clusters move differently, neither
+    holding ``merge_id_ratio`` times the other's features, are not joined (the ferry and the
+    fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
+    velocity gate (:meth:`AffinityClusters.step`) alone at this value."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1855,6 +1923,11 @@ class ClusterParams:
     known_err_decay: float = 0.1
     known_still_px: float = 0.0
     known_band_px: float = 0.0
+    merge_id_dv_px_s: float = 0.0
+    merge_id_ratio: float = 2.0
+    merge_id_apart: bool = False
+    merge_min_share: float = 0.0
+    gate_dv_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -1884,7 +1957,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters)
+                                      p.merge_dv_clusters, p.merge_min_share)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -1944,6 +2017,7 @@ class FeatureClusterer:
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
+        self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
         # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
         self.coast_log: collections.deque = collections.deque(maxlen=2000)
@@ -2470,7 +2544,7 @@ class FeatureClusterer:
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
                     self._lost_dir[k] = (az, el, daz, del_)
-                if p.relink_overlap > 0:
+                if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
                     if r is not None:
                         renamed.add(r)
@@ -2681,8 +2755,9 @@ class FeatureClusterer:
             with np.errstate(invalid="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 vel = np.nanmean(snap.history, axis=1)  # recent velocity relative to the scene
+        gate_dv = p.gate_dv_px_s if p.gate_dv_px_s > 0 and p.merge_dv_px_s > 0 else p.merge_dv_px_s
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable,
-                                       velocity=vel, max_dv_px_s=p.merge_dv_px_s,
+                                       velocity=vel, max_dv_px_s=gate_dv,
                                        min_age_s=p.confirm_s)
         self._apart = set()
         if p.split_dv_px_s > 0 and len(cids):
@@ -2701,6 +2776,7 @@ class FeatureClusterer:
         if np.isfinite(dts) and dts > 0:
             self._dts = (self._dts + [dts])[-9:]
         self._joined_ids = set()
+        self._joined_apart = set()
         if n == 0:
             self._merged = []
             self._last_fi = fi
@@ -2841,7 +2917,7 @@ class FeatureClusterer:
                 keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
-            if p.merge_gap_h > 0 or p.merge_keep > 0:
+            if p.merge_gap_h > 0 or p.merge_keep > 0 or p.merge_id_dv_px_s > 0:
                 fv = member_velocity()  # each member's velocity relative to the scene
                 okv = np.isfinite(fv).all(axis=1)
                 rs = np.zeros((n, 2))
@@ -2860,12 +2936,20 @@ class FeatureClusterer:
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
-                                                         p.merge_keep_gap_h, self._apart or None)
+                                                         p.merge_keep_gap_h, self._apart or None,
+                                                         p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
+                                                         p.merge_id_apart)
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
             self._joined_ids = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1 for c in g[1:]
                                 if _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), skip_dv)}
+            if p.merge_id_dv_px_s > 0:
+                # session 21 (H3): a cluster joined into the report of a cluster moving otherwise is
+                # another boat behind or in front of it: its identity is not handed over to that report
+                id_dv = p.merge_id_dv_px_s * self._zoom
+                self._joined_apart = {self._alias.get(int(c), int(c)) for g in groups if len(g) > 1
+                                      for c in g[1:] if not _moves_alike(rv_of.get(int(g[0])), rv_of.get(int(c)), id_dv)}
         else:
             self._merged = []
         if p.relink_s > 0:
