@@ -144,12 +144,12 @@ def _sim(ctx, name):
     # the default stage, given the camera model as the pipeline gives it (the horizon at each
     # frame's PTZ state marks the water); the same without the camera; and the clustering and
     # output additions off ("paper only": the front end's deviations stay, see _paper_only); and
-    # the default stage with the camera motion from the PTZ telemetry (motion_prior "fallback",
-    # off by default; docs/stable_features.md, session 21)
+    # the default stage without the camera motion from the PTZ telemetry (motion_prior "off": the
+    # camera motion fitted to the features only, the default until session 21)
     trackers = {"stable_features": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps),
                                                         camera=scn.camera),
-                "stable_features (PTZ motion prior)": StableFeatureTracker(
-                    StableFeatureExtractor(nominal_fps=scn.fps, motion_prior="fallback"), camera=scn.camera),
+                "stable_features (no PTZ motion prior)": StableFeatureTracker(
+                    StableFeatureExtractor(nominal_fps=scn.fps, motion_prior="off"), camera=scn.camera),
                 "stable_features (no camera)": StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps)),
                 "stable_features (paper only)": _paper_only(scn.fps)}
     gt = {}

@@ -128,7 +128,7 @@ class TrackerSettings:
     sf_max_keypoints: int = 200  # keypoints described per frame (SIFT cost)
     sf_min_speed_px_s: float = 1.5  # slower feature velocities count as static
     sf_horizon: str = "camera"  # camera | detect | auto | off: where the water is (docs/stable_features.md)
-    sf_motion_prior: str = "off"  # off | fallback | always: the camera motion from the PTZ telemetry (docs/stable_features.md)
+    sf_motion_prior: str = "fallback"  # off | fallback | always: the camera motion from the PTZ telemetry (docs/stable_features.md)
 
 
 @dataclass(frozen=True)

@@ -119,7 +119,7 @@ def test_process_uses_the_prior_and_scales_it_to_the_working_image():
     tex = _texture()
     prior = np.array([[1.0, 0, -3.0], [0, 1.0, 0.0], [0, 0, 1.0]])  # a pan: the image moves 3 px left
     ext = StableFeatureExtractor(motion_prior="fallback", work_width_px=W // 2, nominal_fps=10.0)
-    off = StableFeatureExtractor(work_width_px=W // 2, nominal_fps=10.0)
+    off = StableFeatureExtractor(motion_prior="off", work_width_px=W // 2, nominal_fps=10.0)
     for i in range(8):
         img = np.ascontiguousarray(tex[:, 3 * i:3 * i + W])
         snap = ext.process(img, i / 10.0, motion_prior=prior if i else None)
@@ -164,6 +164,9 @@ def test_config_key_reaches_the_extractor_and_a_typo_is_refused():
 
     cfg = load_config(None, ["tracker.sf_motion_prior=fallback"])
     assert StableFeatureTracker.from_config(cfg, fps=10.0).extractor.motion_prior == "fallback"
-    assert StableFeatureTracker.from_config(load_config(None, []), fps=10.0).extractor.motion_prior == "off"
+    assert StableFeatureTracker.from_config(load_config(None, []), fps=10.0).extractor.motion_prior == "fallback"
+    assert StableFeatureExtractor().motion_prior == "fallback"  # the default since session 21
+    cfg = load_config(None, ["tracker.sf_motion_prior=off"])
+    assert StableFeatureTracker.from_config(cfg, fps=10.0).extractor.motion_prior == "off"
     with pytest.raises(ConfigError, match="tracker.sf_motion_prior"):
         load_config(None, ["tracker.sf_motion_prior=ptz"])

@@ -21,10 +21,12 @@ from seawatch.track.feature_clusters import (
 )
 
 
-def test_defaults_are_off():
-    p = ClusterParams()
-    assert p.merge_id_dv_px_s == 0.0 and p.merge_min_share == 0.0
-    assert FeatureClusterer(p).graph.min_share == 0.0
+def test_defaults_and_the_papers_rule_when_off():
+    p = ClusterParams()  # on by default since session 21 (with the PTZ motion prior)
+    assert p.merge_id_dv_px_s == 3.0 and p.merge_min_share == 0.34
+    assert FeatureClusterer(p).graph.min_share == 0.34
+    off = ClusterParams(merge_id_dv_px_s=0.0, merge_min_share=0.0)
+    assert FeatureClusterer(off).graph.min_share == 0.0
 
 
 # a small, old cluster (identity 3, 2 features, still) inside a large, younger one's box (identity 8,
@@ -93,7 +95,7 @@ def _clusterer_run(**kw):
 
 
 def test_clusterer_off_gives_the_passing_boat_the_small_clusters_older_identity():
-    out = _clusterer_run()
+    out = _clusterer_run(merge_id_dv_px_s=0.0)
     assert out[0] == [1]  # the small cluster alone
     assert all(o == [1] for o in out[1:])  # one report, the oldest identity
 

@@ -56,9 +56,9 @@ def _params(**kw):
     return ClusterParams(still_radius_px=0.0, relink_s=0.0, coast_s=0.0, confirm_s=0.0, **kw)
 
 
-def test_off_by_default_and_slow_boat_static():
-    assert ClusterParams().known_min_speed_px_s == 0.0
-    c, n_det = _run(_params(), coast_speed=0.1)
+def test_on_by_default_and_slow_boat_static_when_off():
+    assert ClusterParams().known_min_speed_px_s == 0.8 and ClusterParams().known_still_px == 0.1
+    c, n_det = _run(_params(known_min_speed_px_s=0.0), coast_speed=0.1)
     assert max(n_det) == 0  # 1 px/s is below the 1.5 px/s floor: no edge, no cluster
     assert not np.isfinite(c.camera_err_px_s)  # not even measured when off
     assert c.min_speed_px_s == pytest.approx(1.5)
@@ -124,7 +124,7 @@ def test_still_gate_lowers_floor_only_with_still_camera():
     c.update(_with_h(_scene(12, 3.0), 2.0), horizon=hz)
     assert c.camera_err_px_s == pytest.approx(0.1) and c.min_speed_px_s == pytest.approx(1.5)
     # without the gate (known_still_px 0) the panning frames measure and lower it too
-    c = FeatureClusterer(_params(known_min_speed_px_s=0.8))
+    c = FeatureClusterer(_params(known_min_speed_px_s=0.8, known_still_px=0.0))
     c.update(_with_h(_scene(0, 0.1), 2.0), horizon=hz)
     assert c.min_speed_px_s == pytest.approx(0.8)
 

@@ -529,8 +529,8 @@ class StableFeatureExtractor:
         paper, whose mean is over all stable features, boats included).
     motion_prior : {"off", "fallback", "always"}
         Use of the camera motion predicted from the pan/tilt/zoom telemetry (the ``motion_prior``
-        homography that :meth:`process` is given; not in the paper).  "off" (default): ignored.
-        "fallback": where fewer than ``min_camera_matches`` stable matches lie above the horizon
+        homography that :meth:`process` is given; not in the paper).  "off": ignored.
+        "fallback" (default since session 21): where fewer than ``min_camera_matches`` stable matches lie above the horizon
         (or no horizon is given), the camera motion is the prior, moved by the median residual
         of the stable matches above the horizon that lie within ``prior_px`` of it (when there are
         ``prior_min_matches`` of them): the water's features, which drift with the waves, no
@@ -662,7 +662,7 @@ class StableFeatureExtractor:
         band_max_keypoints: int = 150,
         band_grid_cells: tuple[int, int] = (16, 2),
         scene_motion: bool = True,
-        motion_prior: str = "off",
+        motion_prior: str = "fallback",
         prior_px: float = 1.5,
         prior_min_matches: int = 3,
         guided_px: float = 10.0,

@@ -1918,15 +1918,15 @@ class ClusterParams:
     relink_area_same_zoom: bool = True
     relink_alt_s: float = 3.0
     relink_alt_memory: bool = False
-    known_min_speed_px_s: float = 0.0
+    known_min_speed_px_s: float = 0.8
     known_err_k: float = 2.0
     known_err_decay: float = 0.1
-    known_still_px: float = 0.0
+    known_still_px: float = 0.1
     known_band_px: float = 0.0
-    merge_id_dv_px_s: float = 0.0
+    merge_id_dv_px_s: float = 3.0
     merge_id_ratio: float = 2.0
     merge_id_apart: bool = False
-    merge_min_share: float = 0.0
+    merge_min_share: float = 0.34
     gate_dv_px_s: float = 0.0
 
 
@@ -3207,7 +3207,7 @@ class StableFeatureTracker:
         ext = StableFeatureExtractor(
             max_keypoints=int(getattr(settings, "sf_max_keypoints", 200)),
             nominal_fps=float(fps) if fps and fps > 0 else 25.0,
-            motion_prior=str(getattr(settings, "sf_motion_prior", "off")),
+            motion_prior=str(getattr(settings, "sf_motion_prior", "fallback")),
         )
         params = ClusterParams(
             dmax=float(getattr(settings, "sf_dmax", 0.31)),
