@@ -170,3 +170,21 @@ def test_config_key_reaches_the_extractor_and_a_typo_is_refused():
     assert StableFeatureTracker.from_config(cfg, fps=10.0).extractor.motion_prior == "off"
     with pytest.raises(ConfigError, match="tracker.sf_motion_prior"):
         load_config(None, ["tracker.sf_motion_prior=ptz"])
+
+
+def test_a_frame_without_matches_is_carried_by_the_prior_and_a_bad_prior_changes_nothing():
+    tex = _texture(seed=4)
+    ext = StableFeatureExtractor(motion_prior="fallback", nominal_fps=10.0)
+    for i in range(6):
+        ext.process(np.ascontiguousarray(tex[:, :W]), i / 10.0)  # a still camera
+    alive = np.flatnonzero(ext._alive)
+    before = ext._xy[alive].copy()
+    n = ext._n
+    with pytest.raises(ValueError, match="3x3"):
+        ext.process(np.zeros((H, W), np.uint8), 0.6, motion_prior=np.full((3, 3), np.nan))
+    assert ext._n == n and np.array_equal(ext._xy[alive], before)  # nothing changed
+    prior = np.array([[1.0, 0, 5.0], [0, 1.0, -2.0], [0, 0, 1.0]])
+    snap = ext.process(np.zeros((H, W), np.uint8), 0.6, motion_prior=prior)  # blank: no match
+    assert snap.n_matched == 0 and snap.camera_motion_ok
+    np.testing.assert_allclose(snap.homography, prior, atol=1e-9)
+    np.testing.assert_allclose(ext._xy[alive], before + [5.0, -2.0], atol=1e-9)  # carried with the camera

@@ -1268,7 +1268,8 @@ class StableFeatureExtractor:
         Raises
         ------
         ValueError
-            When the image is not an image.
+            When the image is not an image, or ``motion_prior`` is not a finite 3x3 homography
+            (the extractor's state is then unchanged).
         """
         full = to_grey_u8(image)
         if self._shape is not None and full.shape != self._shape:
@@ -1282,6 +1283,14 @@ class StableFeatureExtractor:
         else:
             self._scale = 1.0
             grey = full
+        prior = None  # checked before anything changes: a bad prior loses nothing
+        if motion_prior is not None and self.motion_prior != "off":
+            prior = np.asarray(motion_prior, np.float64)
+            if prior.shape != (3, 3) or not np.all(np.isfinite(prior)) or prior[2, 2] == 0:
+                raise ValueError(f"motion_prior must be a finite 3x3 homography, got shape {prior.shape}")
+            sc = np.diag([self._scale, self._scale, 1.0])  # source -> working pixels
+            prior = sc @ prior @ np.linalg.inv(sc)
+            prior = prior / prior[2, 2]
         fi = self._n if frame_index is None else int(frame_index)
         dt = 1.0 / self.nominal_fps
         if self._t_prev is not None and t_s > self._t_prev:
@@ -1306,8 +1315,10 @@ class StableFeatureExtractor:
         if self.guided_px > 0:
             radius = self.guided_px * self._scale + self.gate_min_px_s * self._scale * dt
         qi, si = self._match(kdesc, act, kxy, radius)
-        h = np.eye(3)
-        motion_ok = False
+        # no match at all (a blank or corrupt frame): the prior, when given, still carries the
+        # features with the camera
+        h = np.eye(3) if prior is None else prior
+        motion_ok = prior is not None
         jumped = np.zeros(len(qi), bool)
         if len(qi) and self.subpixel and self._grey_prev is not None:
             kxy[qi], ok = self._refine(self._grey_prev, grey, self._xy[si], kxy[qi])
@@ -1320,14 +1331,6 @@ class StableFeatureExtractor:
             if line is not None and self.scene_motion:
                 wk = max(grey.shape[1] - 1, 1)
                 scene = src[:, 1] < line[0] + (line[1] - line[0]) * src[:, 0] / wk - 1.0
-            prior = None
-            if motion_prior is not None and self.motion_prior != "off":
-                prior = np.asarray(motion_prior, np.float64)
-                if prior.shape != (3, 3) or not np.all(np.isfinite(prior)) or prior[2, 2] == 0:
-                    raise ValueError(f"motion_prior must be a finite 3x3 homography, got shape {prior.shape}")
-                sc = np.diag([self._scale, self._scale, 1.0])  # source -> working pixels
-                prior = sc @ prior @ np.linalg.inv(sc)
-                prior = prior / prior[2, 2]
             if prior is not None:
                 h, motion_ok = self._prior_motion(prior, src, dst, stable, scene, max(1.0, float(zoom)))
             else:
