@@ -82,7 +82,8 @@ def test_large_camera_error_keeps_floor():
 
 
 def test_intermediate_error_and_smoothing():
-    p = _params(known_min_speed_px_s=0.8, known_err_k=2.0, known_err_decay=0.5)
+    # the snapshots are 0.04 s apart: a time constant of 0.04 / ln 2 weighs the new frame 0.5
+    p = _params(known_min_speed_px_s=0.8, known_err_k=2.0, known_err_tau_s=0.04 / np.log(2.0))
     c = FeatureClusterer(p)
     hz = _Level(50)
     c.update(_scene(0, 0.6), horizon=hz)

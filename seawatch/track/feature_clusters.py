@@ -1920,7 +1920,7 @@ class ClusterParams:
     relink_alt_memory: bool = False
     known_min_speed_px_s: float = 0.8
     known_err_k: float = 2.0
-    known_err_decay: float = 0.1
+    known_err_tau_s: float = 0.949122  # 0.1 a frame at 10 frames/s: -0.1 / ln(0.9)
     known_still_px: float = 0.1
     known_band_px: float = 0.0
     merge_id_dv_px_s: float = 3.0
@@ -2683,7 +2683,8 @@ class FeatureClusterer:
         """Updates :attr:`camera_err_px_s`, the running error of the camera motion: the median
         speed relative to the camera of this frame's matched stable features above the horizon
         (the coast and the sky's edge, static), smoothed over the frames that have any
-        (``params.known_err_decay``, the new frame's weight); with ``params.known_still_px`` > 0 only in
+        (over ``params.known_err_tau_s`` seconds: the new frame's weight is
+        ``1 - exp(-dt / tau)``); with ``params.known_still_px`` > 0 only in
         frames where the camera is still (:attr:`_cam_still`, set here)."""
         p = self.params
         self._cam_still = True
@@ -2709,7 +2710,8 @@ class FeatureClusterer:
         if not len(v):
             return
         e = float(np.median(v))
-        a = float(self.params.known_err_decay)
+        dt = float(snap.dt_s) if np.isfinite(snap.dt_s) and snap.dt_s > 0 else 0.1
+        a = 1.0 - float(np.exp(-dt / max(float(self.params.known_err_tau_s), 1e-9)))
         self.camera_err_px_s = e if not np.isfinite(self.camera_err_px_s) else (1 - a) * self.camera_err_px_s + a * e
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
