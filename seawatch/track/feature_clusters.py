@@ -1729,7 +1729,7 @@ class ClusterParams:
     ``COASTING``) at the place the relink expects it, while the image still shows an object
     there (:meth:`FeatureClusterer._coast`).  On by default at 15 s, 0.4 s, with the check and
     ``coast_follow``, overlap 0.8 with ``coast_inside_big``: on the 12 tuning sequences mean METE
-    0.4702 -> 0.4385, identity switches 69 -> 64 (``benchmarks/sf_tuneset.py``; docs/stable_features.md, "Session 19: coasting").
+    0.4702 -> 0.4385, identity switches 69 -> 64 (``benchmarks/sf_tuneset.py``; docs/stable_features_log.md, "Session 19: coasting").
     Session 19 (the box fitted to the boat): ``box_disp_s`` (1 s; 0: off) with ``box_disp_frac``
     (0.5) and ``box_disp_min_px`` (2 px): a box member whose displacement in the scene over the
     last second, along its cluster's median displacement, is under half of it stays out of the
@@ -1749,8 +1749,8 @@ class ClusterParams:
     the growing (a large ship's dark hull and white superstructure, two clusters, stay joined).
     Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
     0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
-    none both 0.004 lower and within 2 switches (docs/stable_features.md, "Session 20").
-    Session 20 (one identity per boat; see docs/stable_features.md, "Session 20: one identity per boat"):
+    none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
+    Session 20 (one identity per boat; see docs/stable_features_log.md, "Session 20: one identity per boat"):
     ``relink_dv_px_s`` / ``hand_over_dv_px_s`` (0: off): a lost identity is relinked (handed over) only
     to a cluster whose own velocity lies within this (px/s, times the zoom) of the identity's own
     velocity when last seen (an unknown one passes), with ``dv_still_px_s`` (0: always) only where the
@@ -1771,7 +1771,7 @@ class ClusterParams:
     of the core's width inside that box's columns).  On the 12 tuning sequences ``grow_hint`` with
     ``grow_hint_core`` 0.5 gave mean METE 0.4325 -> 0.4172, identity switches 53 -> 49.
 
-    Session 21 (one identity per boat on ``ir``; see docs/stable_features.md, "Session 21"; on by
+    Session 21 (one identity per boat on ``ir``; see docs/stable_features_log.md, "Session 21"; on by
     default together: ``hand_over_height_ratio`` 3, ``relink_min_area`` 0.3 with
     ``relink_area_same_zoom``, ``relink_alt_s`` 3 s; on the 12 tuning sequences mean METE 0.4325 ->
     0.4318, identity switches 53 -> 48; ``hand_over_size_ratio`` is off):
