@@ -113,7 +113,8 @@ def main(argv=None) -> int:
     def wrapped(image, boxes, cores, **k2):
         res = orig(image, boxes, cores, **k2)
         plain = orig(image, boxes, cores, **dict(k2, waterline_frac=0.0, wake_frac=0.0, top_frac=0.0,
-                                                   return_contrast=False))
+                                                   return_contrast=False, return_found=False))
+        plain = plain[0] if isinstance(plain, tuple) else plain
         seen["pre"] = np.array(boxes, float).reshape(-1, 4)
         seen["core"] = np.array(cores, float).reshape(-1, 4)
         seen["plain"] = np.array(plain, float).reshape(-1, 4)
