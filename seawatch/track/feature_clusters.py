@@ -781,7 +781,7 @@ def _close_label(fg):
 
 
 @nb.njit(cache=True, nogil=True)
-def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac, low=False):
+def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac, low=False, side=0):
     """The deviation ``dev`` (float32) of a window ``win`` from its rows' background ``bg`` kept to
     the core's polarity (session 20, ``grow_boxes``' ``sign_frac``): each pixel's sign is that of
     the sum over the channels of its difference from the background (darker -1, brighter +1);
@@ -790,7 +790,8 @@ def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac, low=False):
     bright wake foam (or a bright hull's dark shadow) then no longer joins the object.  Returns
     ``(dev or its masked copy, polarity)``, polarity 0 when neither sign dominates.  With ``low``
     only the pixels from the core's top row down are masked (a superstructure of the other sign
-    above the hull stays; a wake lies at the waterline)."""
+    above the hull stays; a wake lies at the waterline).  With ``side`` -1 (+1) only the columns
+    left (right) of the core are masked: the side a wake trails on (session 22); 0 all."""
     rows, cols = dev.shape
     nc = win.shape[2]
     sg = np.zeros((rows, cols), np.int8)
@@ -819,8 +820,10 @@ def _one_sign(win, bg, dev, thr, r0, r1, c0, c1, frac, low=False):
     else:
         return dev, 0
     out = dev.copy()
+    q_lo = c1 if side > 0 else 0
+    q_hi = c0 if side < 0 else cols
     for r in range(r0 if low else 0, rows):
-        for q in range(cols):
+        for q in range(q_lo, q_hi):
             if sg[r, q] == -pol and not (r0 <= r < r1 and c0 <= q < c1):
                 out[r, q] = np.float32(0.0)
     return out, pol
@@ -918,7 +921,7 @@ def grow_boxes(
     cut_core_frac: float = 0.0, cut_core_undo: bool = False, wake_thick: bool = False,
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
-    hint_core: float = 0.0, hint_core_x: bool = False,
+    hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -997,6 +1000,11 @@ def grow_boxes(
         ship seen large is often two clusters of opposite polarity (a dark hull, a white
         superstructure) whose grown boxes overlap and are reported as one; kept to their
         polarities they are reported apart.
+    sign_side : (N,) int, optional
+        ``sign_frac`` only behind a moving boat (not in the paper; session 22; None: off): only for
+        boxes whose side is -1 (left) or +1 (right), and only the columns beyond the core on that
+        side are masked (a wake's foam trails behind the boat; the other polarity above or beside
+        the core, a large ship's superstructure or its other parts, stays in); 0: not masked.
     cover_wide : bool
         Also look in the wider window (``wide_grow_px``) when the object found in the first window
         does not cover the core (not in the paper; session 21, off by default).  A ship at full
@@ -1052,10 +1060,14 @@ def grow_boxes(
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
         gx = gy = min(max(min_grow_px, grow * max(w, h)), max_grow_px)  # features often lie along a line
         sf = sign_frac if (sign_max_px <= 0 or h <= sign_max_px) else 0.0
+        side = 0
+        if sign_side is not None:
+            side = int(sign_side[n])
+            sf = sf if side != 0 else 0.0
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide)
+                                            sf, cover_wide, side)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1063,7 +1075,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf)
+                                   sf, False, side)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1077,7 +1089,7 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf)
+                                       cut_core_undo, wake_thick, sf, False, side)
                 if box is not None:
                     contrast[n] = c3
         if box is not None:
@@ -1101,7 +1113,7 @@ def _inside_frac(a, b, x_only=False) -> float:
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
-              wake_thick=False, sign_frac=0.0, cover_wide=False):
+              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1136,7 +1148,8 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     thr = max(k_sigma * sigma, min_contrast, peak_frac * peak)
     dev_all = dev
     if sign_frac != 0:  # the other polarity outside the core is not the object (a dark hull's foam)
-        dev, _ = _one_sign(win, bg, dev, np.float32(thr), r0, r1, q0, q1, abs(float(sign_frac)), sign_frac < 0)
+        dev, _ = _one_sign(win, bg, dev, np.float32(thr), r0, r1, q0, q1, abs(float(sign_frac)), sign_frac < 0,
+                           int(sign_side))
     # the foreground (numpy compares the float32 deviations with thr cast to float32) closed by
     # a 3x3 square, its components touching the core; a component reaching the window's left or
     # right edge is background structure (coast, horizon, sea texture), not the object (a mast or
@@ -1750,6 +1763,10 @@ class ClusterParams:
     Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
     0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
     none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
+    Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
+    behind a boat whose box members move across the image at least this fast (relative to the
+    scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
+    the other polarity above or beside its core stay joined (see :func:`grow_boxes`, ``sign_side``).
     Session 20 (one identity per boat; see docs/stable_features_log.md, "Session 20: one identity per boat"):
     ``relink_dv_px_s`` / ``hand_over_dv_px_s`` (0: off): a lost identity is relinked (handed over) only
     to a cluster whose own velocity lies within this (px/s, times the zoom) of the identity's own
@@ -1901,6 +1918,7 @@ class ClusterParams:
     box_disp_q: float = 0.0
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
+    grow_sign_trail_px_s: float = 0.0
     relink_dv_px_s: float = 0.0
     hand_over_dv_px_s: float = 0.0
     dv_still_px_s: float = 0.0
@@ -2848,8 +2866,8 @@ class FeatureClusterer:
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
-            trail = None
-            if p.wake_frac > 0:
+            trail = sign_side = None
+            if p.wake_frac > 0 or (p.grow_sign != 0 and p.grow_sign_trail_px_s > 0):
                 # a wake trails behind a boat moving across the image (relative to the scene):
                 # the box members' mean velocity
                 fvb = member_velocity()
@@ -2858,7 +2876,10 @@ class FeatureClusterer:
                 vx = np.zeros(n)
                 np.add.at(vx, kb[okv], fvb[okv, 0])
                 vx /= np.maximum(np.bincount(kb[okv], minlength=n), 1)
-                trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
+                if p.wake_frac > 0:
+                    trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
+                if p.grow_sign != 0 and p.grow_sign_trail_px_s > 0:  # the sign rule only on the wake's side
+                    sign_side = np.where(np.abs(vx) >= p.grow_sign_trail_px_s, -np.sign(vx), 0).astype(np.int64)
             pre_grow = boxes
             hints = None
             if p.grow_hint and self._grown_last and self._grown_last_t == self._cluster_boxes_now:
@@ -2874,7 +2895,7 @@ class FeatureClusterer:
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
-                sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, return_found=True,
+                sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
                 hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x)
             if p.grow_hint:
