@@ -1763,6 +1763,8 @@ class ClusterParams:
     Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
     0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
     none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
+    Session 22: ``box_disp_two`` (False: off): ``box_disp_s`` also for a box of two members, the
+    one that moved farther being the boat's (see :meth:`FeatureClusterer._disp_members`).
     Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
     behind a boat whose box members move across the image at least this fast (relative to the
     scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
@@ -1916,6 +1918,7 @@ class ClusterParams:
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
+    box_disp_two: bool = False
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
     grow_sign_trail_px_s: float = 0.0
@@ -2125,7 +2128,10 @@ class FeatureClusterer:
         features move on, however slowly (their velocities over 0.6 s are too noisy to tell).
         With ``box_disp_q`` > 0 the reference is the median displacement of the members left
         when that fraction of them, the ones that moved least, is set aside (a cluster holding
-        more foam features than boat features)."""
+        more foam features than boat features).  With ``box_disp_two`` (session 22) a cluster whose
+        box has only two such members is judged too: the reference is the longer displacement of the
+        two, and the member that stayed behind leaves the box though one member is left (a small
+        boat's one hull feature and one foam feature of its wake: their median is halfway)."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -2166,10 +2172,14 @@ class FeatureClusterer:
         okd = np.isfinite(dm).all(axis=1)
         for c_ in np.unique(k[sel & okd]):
             mem = np.flatnonzero((k == c_) & sel & okd)
-            if len(mem) < 3:
+            two = len(mem) == 2 and p.box_disp_two
+            if len(mem) < 3 and not two:
                 continue
             ref = mem
-            if p.box_disp_q > 0:  # the median of the members that moved farthest
+            if two:  # the one that moved farther is the boat's
+                ln = np.hypot(dm[mem, 0], dm[mem, 1])
+                ref = mem[[int(np.argmax(ln))]]
+            elif p.box_disp_q > 0:  # the median of the members that moved farthest
                 ln = np.hypot(dm[mem, 0], dm[mem, 1])
                 ref = mem[np.argsort(ln, kind="stable")[int(np.floor(p.box_disp_q * len(mem))):]]
             med = np.array([np.median(dm[ref, 0]), np.median(dm[ref, 1])])
@@ -2178,7 +2188,7 @@ class FeatureClusterer:
                 continue
             along = dm[mem] @ (med / L)
             out = along < p.box_disp_frac * L
-            if len(mem) - int(out.sum()) >= 2:
+            if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
 
