@@ -87,3 +87,51 @@ def test_open_water_is_still_not_coasted():
         c.update(snap([[102, 61], [110, 62]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k))
     tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), sea(6, boat=False))[1]
     assert len(tr) == 0
+
+
+def retry_run(horizon_row=None, **kw):
+    """The boat seen for 6 frames, its features then gone; the image shows it in frames 6 and 8-9
+    but not in frame 7 (a wave over it): the reports of frames 6-9."""
+    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=2.0)
+    base.update(kw)
+    c = FeatureClusterer(ClusterParams(**base))
+    hz = None if horizon_row is None else Horizon(horizon_row, horizon_row, SHAPE[1])
+    for k in range(6):
+        c.update(snap([[102, 61], [110, 62]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k), horizon=hz)
+    out = []
+    for k in range(6, 10):
+        tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, []), sea(k, boat=k != 7), horizon=hz)[1]
+        out.append(tr.ids.tolist())
+    return out
+
+
+def test_retry_off_by_default_the_coast_ends_at_the_first_failed_look():
+    assert ClusterParams().coast_retry_s == 0.0
+    got = retry_run()
+    assert got[0] == [1] and got[1:] == [[], [], []]
+
+
+def test_with_retry_the_coast_comes_back_after_a_failed_look():
+    got = retry_run(coast_retry_s=0.5)
+    assert got == [[1], [], [1], [1]]
+
+
+def test_retry_ends_after_coast_retry_s_of_failed_looks():
+    # the boat gone for good from frame 7: looked at in frames 7, 8 (0.1 s < 0.15 s), ended at frame 9
+    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=2.0, coast_retry_s=0.15)
+    c = FeatureClusterer(ClusterParams(**base))
+    for k in range(6):
+        c.update(snap([[102, 61], [110, 62]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k))
+    seen = []
+    for k in range(6, 12):
+        tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.1 * k, k, []), sea(k, boat=k < 7 or k > 9))[1]
+        seen.append(len(tr))
+    assert seen[0] == 1
+    assert [e[3] for e in c.coast_log][1:] == ["not found", "not found", "not found"]  # frames 7-9, then no look
+    assert seen[1:] == [0, 0, 0, 0, 0]  # back in the image at frame 10, but the coast has ended
+
+
+def test_no_retry_in_the_horizon_band():
+    # expected box's bottom at row 64, horizon at row 60: inside the 12 px band, the coast ends as without retry
+    assert retry_run(horizon_row=60.0, coast_retry_s=0.5) == [[1], [], [], []]
+    assert retry_run(horizon_row=60.0, coast_retry_s=0.5, coast_search_below_px=3.0) == [[1], [], [1], [1]]

@@ -1830,7 +1830,11 @@ class ClusterParams:
     (:meth:`FeatureClusterer._coast_search`); the expected box of a boat that came into view during a
     pan lies half a box or more off it.  With ``coast_search_below_px`` (12; 0: anywhere) only where the
     expected box's bottom and the grown box's lie more than this many pixels (times the zoom) below the
-    sea horizon: at the horizon the search finds the horizon's own texture (flat boxes of 1-10 px)."""
+    sea horizon: at the horizon the search finds the horizon's own texture (flat boxes of 1-10 px).
+    ``coast_retry_s`` (0: off): a coast whose grow fails (not found, contrast, size) is not ended at
+    once but looked at again in the next frames (not reported while it fails) until it has failed
+    for this long in a row; a small boat is often not grown in one frame and grown in the next.  Not
+    in the horizon band of ``coast_search_below_px``."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1939,6 +1943,7 @@ class ClusterParams:
     gate_dv_px_s: float = 0.0
     coast_search: float = 0.0
     coast_search_below_px: float = 12.0
+    coast_retry_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2027,6 +2032,8 @@ class FeatureClusterer:
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
+        # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
+        self._coast_fail: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
@@ -3100,8 +3107,28 @@ class FeatureClusterer:
                     self._lost[k] = (tl, grown[j].copy(), v)
                     self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
-        for k in ids[~ok]:  # a coast that failed a check has ended: no report back and forth
-            self._coast_end[int(k)] = self._lost[int(k)][0]
+        low = None
+        if p.coast_retry_s > 0 and p.coast_search_below_px > 0 and self._horizon is not None and len(ids):
+            low = self._below_horizon(lbs)  # no retry in the horizon band (its texture comes and goes)
+        for j in np.flatnonzero(~ok):  # a coast that failed a check has ended: no report back and forth
+            k = int(ids[j])
+            tl = self._lost[k][0]
+            if (p.coast_retry_s > 0 and why[j] in ("not found", "contrast", "size")
+                    and (low is None or low[j])):
+                # coast_retry_s: the grow's checks failed (a wave over a small boat, the boat off the
+                # expected box for a frame): looked at again in the next frames, for this long
+                tl0, tf = self._coast_fail.get(k, (None, None))
+                if tl0 != tl:
+                    tf = t
+                    self._coast_fail[k] = (tl, t)
+                if t - tf < p.coast_retry_s - 1e-9:
+                    continue
+            self._coast_end[k] = tl
+        if p.coast_retry_s > 0:
+            for j in np.flatnonzero(ok):  # a good look ends the run of failed ones
+                self._coast_fail.pop(int(ids[j]), None)
+            if len(self._coast_fail) > 2 * len(self._lost) + 16:
+                self._coast_fail = {k: v for k, v in self._coast_fail.items() if k in self._lost}
         if len(self._coast_end) > 2 * len(self._lost) + 16:  # bounded memory
             self._coast_end = {k: v for k, v in self._coast_end.items() if k in self._lost}
         if not ok.any():
