@@ -3031,6 +3031,9 @@ class FeatureClusterer:
         box's either way: a boat whose features dropped out is still seen, open water is not.
         With ``coast_follow`` the grown box becomes the identity's expected box from then on, so
         the report follows the boat's own motion (otherwise only the camera's motion moves it).
+        Session 22: with ``coast_search`` a failed grow looks around the expected box
+        (:meth:`_coast_search`); with ``coast_retry_s`` a failed grow does not end the coast until
+        it has failed that long in a row (the identity is not reported while it fails).
 
         Returns ``(ids, boxes, velocities)``; the velocities are the identity's own velocity when
         it was lost (px/s, 0 when unknown)."""
