@@ -1840,7 +1840,20 @@ class ClusterParams:
     ``merge_id_dv_px_s``, two overlapping reports whose largest clusters move differently, neither
     holding ``merge_id_ratio`` times the other's features, are not joined (the ferry and the
     fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
-    velocity gate (:meth:`AffinityClusters.step`) alone at this value."""
+    velocity gate (:meth:`AffinityClusters.step`) alone at this value.
+
+    Session 22 (helper H1, boats lost after they were first found on ``pan``): ``coast_search``
+    (0: off): a coast whose grow at the expected box fails (not found, contrast or size) looks again
+    from cores shifted by up to this many box widths and heights (steps of half a box) and takes the
+    good grown box nearest the expected place that does not lie in a report (``coast_overlap``)
+    (:meth:`FeatureClusterer._coast_search`); the expected box of a boat that came into view during a
+    pan lies half a box or more off it.  With ``coast_search_below_px`` (12; 0: anywhere) only where the
+    expected box's bottom and the grown box's lie more than this many pixels (times the zoom) below the
+    sea horizon: at the horizon the search finds the horizon's own texture (flat boxes of 1-10 px).
+    ``coast_retry_s`` (0: off): a coast whose grow fails (not found, contrast, size) is not ended at
+    once but looked at again in the next frames (not reported while it fails) until it has failed
+    for this long in a row; a small boat is often not grown in one frame and grown in the next.  Not
+    in the horizon band of ``coast_search_below_px``."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1949,6 +1962,9 @@ class ClusterParams:
     merge_id_apart: bool = False
     merge_min_share: float = 0.34
     gate_dv_px_s: float = 0.0
+    coast_search: float = 0.0
+    coast_search_below_px: float = 12.0
+    coast_retry_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2037,10 +2053,13 @@ class FeatureClusterer:
         self._app_prev_img = None  # the frame before's image
         self._lost_sig: dict = {}  # lost (or relinked) identity -> its appearance when last seen
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
+        # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
+        self._coast_fail: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
-        # outcome: "reported", "outside", "overlap", "contrast", "not found", "size", "no image"
+        # outcome: "reported", "searched" (coast_search), "outside", "overlap", "contrast", "not found", "size",
+        # "no image"
         self.coast_log: collections.deque = collections.deque(maxlen=2000)
         # (time, identity, cluster, its box, template part, level part, refused) of each pair the
         # appearance check looked at (relink_appearance; the last 1000, for diagnosis)
@@ -3043,6 +3062,9 @@ class FeatureClusterer:
         box's either way: a boat whose features dropped out is still seen, open water is not.
         With ``coast_follow`` the grown box becomes the identity's expected box from then on, so
         the report follows the boat's own motion (otherwise only the camera's motion moves it).
+        Session 22: with ``coast_search`` a failed grow looks around the expected box
+        (:meth:`_coast_search`); with ``coast_retry_s`` a failed grow does not end the coast until
+        it has failed that long in a row (the identity is not reported while it fails).
 
         Returns ``(ids, boxes, velocities)``; the velocities are the identity's own velocity when
         it was lost (px/s, 0 when unknown)."""
@@ -3098,9 +3120,19 @@ class FeatureClusterer:
             ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
+            searched = np.zeros(len(sel), bool)
+            if p.coast_search > 0 and not good.all():  # session 22: look around the expected place
+                bad = np.flatnonzero(~good)
+                g2, ok2 = self._coast_search(img, b[bad], reported)
+                grown[bad[ok2]] = g2[ok2]
+                found[bad[ok2]] = True
+                contrast[bad[ok2]] = np.inf
+                good[bad[ok2]] = True
+                searched[bad[ok2]] = True
             ok[sel] = good
             why[sel] = np.where(~found, "not found", np.where(~(contrast >= p.min_contrast), "contrast",
                                                               np.where(good, "reported", "size")))
+            why[sel[searched]] = "searched"  # coast_search: reported at a box found around the expected place
             lbs[sel] = np.where(good[:, None], grown, b)
             if p.coast_follow:
                 for j in np.flatnonzero(good):
@@ -3109,13 +3141,102 @@ class FeatureClusterer:
                     self._lost[k] = (tl, grown[j].copy(), v)
                     self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
-        for k in ids[~ok]:  # a coast that failed a check has ended: no report back and forth
-            self._coast_end[int(k)] = self._lost[int(k)][0]
+        low = None
+        if p.coast_retry_s > 0 and p.coast_search_below_px > 0 and self._horizon is not None and len(ids):
+            low = self._below_horizon(lbs)  # no retry in the horizon band (its texture comes and goes)
+        for j in np.flatnonzero(~ok):  # a coast that failed a check has ended: no report back and forth
+            k = int(ids[j])
+            tl = self._lost[k][0]
+            if (p.coast_retry_s > 0 and why[j] in ("not found", "contrast", "size")
+                    and (low is None or low[j])):
+                # coast_retry_s: the grow's checks failed (a wave over a small boat, the boat off the
+                # expected box for a frame): looked at again in the next frames, for this long
+                tl0, tf = self._coast_fail.get(k, (None, None))
+                if tl0 != tl:
+                    tf = t
+                    self._coast_fail[k] = (tl, t)
+                if t - tf < p.coast_retry_s - 1e-9:
+                    continue
+            self._coast_end[k] = tl
+        if p.coast_retry_s > 0:
+            for j in np.flatnonzero(ok):  # a good look ends the run of failed ones
+                self._coast_fail.pop(int(ids[j]), None)
+            if len(self._coast_fail) > 2 * len(self._lost) + 16:
+                self._coast_fail = {k: v for k, v in self._coast_fail.items() if k in self._lost}
         if len(self._coast_end) > 2 * len(self._lost) + 16:  # bounded memory
             self._coast_end = {k: v for k, v in self._coast_end.items() if k in self._lost}
         if not ok.any():
             return empty
         return ids[ok], lbs[ok], vel[ok]
+
+
+    def _below_horizon(self, boxes):
+        """Whether each box's bottom lies more than ``coast_search_below_px`` (times the zoom) below
+        the sea horizon (under the lower of its two ends at the box's left and right edges)."""
+        row = np.maximum(*(np.asarray(self._horizon.row_at(x), np.float64)
+                           for x in (boxes[:, 0], boxes[:, 0] + boxes[:, 2])))
+        return boxes[:, 1] + boxes[:, 3] > row + self.params.coast_search_below_px * self._zoom
+
+    def _coast_search(self, img, b, reported):
+        """``params.coast_search``: each expected box in ``b`` (``x, y, w, h``) grown again from cores
+        (the middle half of the box) shifted by up to ``coast_search`` box widths and heights in
+        steps of half a box; of the grown boxes that pass the coast's checks (found, contrast at
+        least ``min_contrast``, area within ``coast_size_ratio`` of the expected box's either way),
+        lie below the horizon band (``coast_search_below_px``; the expected box too) and lie by no more than ``coast_overlap`` in one of this frame's ``reported`` boxes (a boat
+        already reported is not this one), the one whose centre lies nearest the expected box's.
+        Returns ``(boxes, ok)``."""
+        p = self.params
+        n = len(b)
+        steps = np.arange(-p.coast_search, p.coast_search + 1e-9, 0.5)
+        ox, oy = np.meshgrid(steps, steps)
+        off = np.stack([ox.ravel(), oy.ravel()], axis=1)
+        off = off[np.any(off != 0, axis=1)]  # the expected place itself was looked at
+        m = len(off)
+        bb = np.repeat(b, m, axis=0)
+        sh = bb.copy()
+        sh[:, 0] += np.tile(off[:, 0], n) * bb[:, 2]
+        sh[:, 1] += np.tile(off[:, 1], n) * bb[:, 3]
+        hh, ww = img.shape[:2]
+        cx, cy = sh[:, 0] + 0.5 * sh[:, 2], sh[:, 1] + 0.5 * sh[:, 3]
+        inimg = (cx >= 0) & (cx < ww) & (cy >= 0) & (cy < hh)
+        below = self._below_horizon if p.coast_search_below_px > 0 and self._horizon is not None else None
+        if below is not None:
+            inimg &= below(bb)  # the expected box itself lies below the horizon band
+        out = b.copy()
+        ok = np.zeros(n, bool)
+        if not inimg.any():
+            return out, ok
+        idx = np.flatnonzero(inimg)
+        s_ = sh[idx]
+        cores = np.stack([s_[:, 0] + 0.25 * s_[:, 2], s_[:, 1] + 0.25 * s_[:, 3], 0.5 * s_[:, 2], 0.5 * s_[:, 3]],
+                         axis=1)
+        grown, contrast, found = grow_boxes(img, s_, cores, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
+                                            return_found=True, wide_grow_px=p.grow_wide_px,
+                                            waterline_frac=p.waterline_frac, top_frac=p.top_frac)
+        e = bb[idx]
+        ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(e[:, 2] * e[:, 3], 1e-9)
+        good = found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio) & (ratio >= 1 / p.coast_size_ratio)
+        if len(reported) and good.any():
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            iw = (np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                  - np.maximum(grown[:, None, 0], r[None, :, 0]))
+            ih = (np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                  - np.maximum(grown[:, None, 1], r[None, :, 1]))
+            inside = np.maximum(iw, 0) * np.maximum(ih, 0) / np.maximum(grown[:, 2] * grown[:, 3], 1e-9)[:, None]
+            good &= inside.max(axis=1) <= p.coast_overlap
+        if below is not None and good.any():
+            good &= below(grown)
+        d = np.hypot(grown[:, 0] + 0.5 * grown[:, 2] - e[:, 0] - 0.5 * e[:, 2],
+                     grown[:, 1] + 0.5 * grown[:, 3] - e[:, 1] - 0.5 * e[:, 3])
+        d = np.where(good, d, np.inf)
+        owner = idx // m
+        for j in range(n):
+            q = np.flatnonzero(owner == j)
+            if len(q) and np.isfinite(d[q]).any():
+                best = q[np.argmin(d[q])]
+                out[j] = grown[best]
+                ok[j] = True
+        return out, ok
 
 
 def camera_at(camera, frame: Frame):
