@@ -77,10 +77,17 @@ def test_the_coast_follows_the_boat_with_follow_and_not_without():
 
 
 def test_no_report_on_open_water_and_the_coast_ends_for_good():
-    c = FeatureClusterer(params())
+    c = FeatureClusterer(params(coast_retry_s=0.0))
     seen(c)
     assert len(empty(c, 6, sea(6, boat=False))) == 0  # nothing stands out at the expected place
     assert len(empty(c, 7, sea(7))) == 0  # the boat back in the image, but this coast has ended
+
+
+def test_with_the_default_retry_a_failed_look_does_not_end_the_coast():
+    c = FeatureClusterer(params())  # coast_retry_s 1 s (session 22)
+    seen(c)
+    assert len(empty(c, 6, sea(6, boat=False))) == 0  # nothing stands out: not reported
+    assert len(empty(c, 7, sea(7))) == 1  # the boat back in the image within the second: coasted again
 
 
 def test_the_coast_lasts_coast_s():

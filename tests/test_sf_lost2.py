@@ -105,9 +105,10 @@ def retry_run(horizon_row=None, **kw):
     return out
 
 
-def test_retry_off_by_default_the_coast_ends_at_the_first_failed_look():
-    assert ClusterParams().coast_retry_s == 0.0
-    got = retry_run()
+def test_retry_on_by_default_and_off_the_coast_ends_at_the_first_failed_look():
+    assert ClusterParams().coast_retry_s == 1.0
+    assert retry_run() == [[1], [], [1], [1]]
+    got = retry_run(coast_retry_s=0.0)
     assert got[0] == [1] and got[1:] == [[], [], []]
 
 
