@@ -1821,7 +1821,15 @@ class ClusterParams:
     ``merge_id_dv_px_s``, two overlapping reports whose largest clusters move differently, neither
     holding ``merge_id_ratio`` times the other's features, are not joined (the ferry and the
     fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
-    velocity gate (:meth:`AffinityClusters.step`) alone at this value."""
+    velocity gate (:meth:`AffinityClusters.step`) alone at this value.
+
+    Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
+    is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
+    waterline) lies more than this many times the taller of the two boxes' heights above or below the
+    lost box's expected bottom: the waterline's row is the boat's range, which changes little while
+    it is lost (the right relinks on the tuning sequences moved it by at most 0.67 of the lost box's
+    height; the wrong ones that made switches by 2-44 times: a sailboat's identity on the rib
+    30 px lower, an identity lost at the image's foot on a boat near the horizon)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1928,6 +1936,7 @@ class ClusterParams:
     merge_id_apart: bool = False
     merge_min_share: float = 0.34
     gate_dv_px_s: float = 0.0
+    relink_dy_h: float = 0.0
 
 
 class FeatureClusterer:
@@ -2421,6 +2430,10 @@ class FeatureClusterer:
                     d_alt = gap_px(boxes[i], alt[1])
                     if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
                         d, gate, lb = d_alt, np.inf, alt[1]
+                if p.relink_dy_h > 0:  # session 22: a boat keeps its waterline's row (its range) through a loss
+                    dy = abs((boxes[i][1] + boxes[i][3]) - (lb[1] + lb[3]))
+                    if dy > p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0):
+                        continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):

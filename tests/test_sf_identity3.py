@@ -1,0 +1,62 @@
+"""Session 22 (issue #8, one identity per boat on ``ir``, helper H2): a lost identity is not
+relinked to a new cluster whose box bottom (the waterline: the boat's range) lies far above or
+below the lost box's expected bottom (``relink_dy_h``, off by default)."""
+
+import numpy as np
+
+from _feature_snap import snap
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+
+EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
+# the session-21 relink checks switched off, so that only the row check acts
+OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0)
+
+
+def test_default_off():
+    assert ClusterParams().relink_dy_h == 0.0
+
+
+def _relink_to(new_xy, **kw):
+    """A cluster of two features at (100, 60) and (130, 70) (a 34 x 14 px box, bottom at 72) is lost
+    at 0.2 s; at 0.5 s a cluster of two features at ``new_xy`` appears within the relink gate
+    (20 px + 10 px/s * 0.3 s).  Returns (the lost identity, the new report's identity and box, the
+    clusterer)."""
+    c = FeatureClusterer(ClusterParams(**{**OFF, **dict(confirm_s=0.0, relink_s=10.0, coast_s=0.0), **kw}))
+    vel = [[20.0, 0.0]] * 2
+    _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
+    c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
+    for k in range(2, 5):
+        c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
+    _, tr2 = c.update(snap(new_xy, vel, 0.5, 5, ids=[3, 4]))
+    assert len(tr2) == 1
+    return int(tr.ids[0]), int(tr2.ids[0]), tr2.boxes[0], c
+
+
+LOWER = [[100, 90], [130, 92]]  # a 34 x 6 px box, bottom at 94: 22 px below, 1.57 times the taller box (14 px)
+SAME_ROW = [[140, 60], [170, 70]]  # 6 px to the right, the same rows
+
+
+def test_relink_refused_to_a_cluster_on_another_row():
+    first, now, box, _ = _relink_to(LOWER)
+    assert np.isclose(box[1] + box[3], 94.0) and np.isclose(box[3], 6.0)
+    assert now == first  # off: within the gate, relinked
+    first, now, _, c = _relink_to(LOWER, relink_dy_h=1.5)
+    assert now != first and first in c._lost  # refused: the identity stays lost
+    first, now, _, _ = _relink_to(LOWER, relink_dy_h=2.0)
+    assert now == first  # 1.57 times the height: within 2
+
+
+def test_relink_kept_on_the_same_row():
+    first, now, _, _ = _relink_to(SAME_ROW, relink_dy_h=0.5)
+    assert now == first
+
+
+def test_refused_identity_goes_to_a_later_cluster_on_its_row():
+    """The identity refused on the lower row is still lost and goes to a cluster on its row."""
+    first, now, _, c = _relink_to(LOWER, relink_dy_h=1.5)
+    assert now != first
+    vel = [[20.0, 0.0]] * 2 + [[-20.0, 0.0]] * 2  # moving apart: two clusters
+    _, tr = c.update(snap(LOWER + SAME_ROW, vel, 0.6, 6, ids=[3, 4, 5, 6]))
+    assert first in tr.ids.tolist() and now in tr.ids.tolist()
+    k = tr.ids.tolist().index(first)
+    assert np.isclose(tr.boxes[k][1] + tr.boxes[k][3], 72.0)
