@@ -60,3 +60,50 @@ def test_refused_identity_goes_to_a_later_cluster_on_its_row():
     assert first in tr.ids.tolist() and now in tr.ids.tolist()
     k = tr.ids.tolist().index(first)
     assert np.isclose(tr.boxes[k][1] + tr.boxes[k][3], 72.0)
+
+
+def test_row_check_only_at_the_same_zoom():
+    """``relink_dy_same_zoom``: the row check applies only when the zoom is (within 5 %) the one at
+    the loss."""
+    def run(zoom_now, **kw):
+        c = FeatureClusterer(ClusterParams(**{**OFF, **dict(confirm_s=0.0, relink_s=10.0, coast_s=0.0), **kw}))
+        vel = [[20.0, 0.0]] * 2
+        _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
+        c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
+        for k in range(2, 5):
+            c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
+        _, tr2 = c.update(snap(LOWER, vel, 0.5, 5, ids=[3, 4]), zoom=zoom_now)
+        return int(tr.ids[0]), int(tr2.ids[0])
+
+    first, now = run(1.04, relink_dy_h=1.5, relink_dy_same_zoom=True)
+    assert now != first  # the same zoom: checked, refused
+    first, now = run(2.0, relink_dy_h=1.5, relink_dy_same_zoom=True)
+    assert now == first  # the zoom changed: not checked
+    first, now = run(2.0, relink_dy_h=1.5)
+    assert now != first  # without relink_dy_same_zoom: checked whatever the zoom
+
+
+def _two_lost_one_new(**kw):
+    """Two clusters lost at once: an older one A (features at (100, 60), (130, 70): box x 98-132) and
+    a younger one B (at (121, 62), (150, 70): x 119-152), moving apart; then a new cluster on B's place
+    overlaps both expected boxes (gap 0 to each).  Returns (A, B, the new report's identity)."""
+    c = FeatureClusterer(ClusterParams(**{**OFF, **dict(confirm_s=0.0, relink_s=10.0, coast_s=0.0,
+                                                         merge_overlap=0.0, relink_overlap=0.0), **kw}))
+    xy = [[100, 60], [130, 70], [121, 62], [150, 70]]
+    vel = [[20.0, 0.0]] * 2 + [[-20.0, 0.0]] * 2
+    for f in range(2):
+        _, tr = c.update(snap(xy, vel, 0.1 * f, f, ids=[1, 2, 3, 4]))
+    assert len(tr) == 2
+    a, b = sorted(int(i) for i in tr.ids)
+    for k in range(2, 5):
+        c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
+    _, tr2 = c.update(snap([[121, 62], [150, 70]], vel[2:], 0.5, 5, ids=[5, 6]))
+    assert len(tr2) == 1
+    return a, b, int(tr2.ids[0])
+
+
+def test_iou_tie_gives_the_best_overlapping_identity():
+    a, b, now = _two_lost_one_new()
+    assert now == a  # off: at one gap (0) the older identity goes first
+    a, b, now = _two_lost_one_new(relink_iou_tie=True)
+    assert now == b  # the lost box it overlaps most

@@ -1638,6 +1638,16 @@ def _keep_edge(a0, a1, size, last):
     return a1 - size, a1
 
 
+def _iou(a, b) -> float:
+    """Intersection over union of two boxes (x, y, w, h)."""
+    iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    if iw <= 0 or ih <= 0:
+        return 0.0
+    inter = iw * ih
+    return float(inter / max(a[2] * a[3] + b[2] * b[3] - inter, 1e-12))
+
+
 def _moves_alike(v_lost, v_new, max_dv) -> bool:
     """Whether two own velocities (px/s) differ by at most ``max_dv`` (vector difference); True
     when either is unknown (None or not finite)."""
@@ -1829,7 +1839,13 @@ class ClusterParams:
     lost box's expected bottom: the waterline's row is the boat's range, which changes little while
     it is lost (the right relinks on the tuning sequences moved it by at most 0.67 of the lost box's
     height; the wrong ones that made switches by 2-44 times: a sailboat's identity on the rib
-    30 px lower, an identity lost at the image's foot on a boat near the horizon)."""
+    30 px lower, an identity lost at the image's foot on a boat near the horizon);
+    ``relink_dy_same_zoom`` (False: always): that check only when the zoom now is within 5 % of the
+    zoom at the loss (as ``relink_area_same_zoom``); ``relink_iou_tie`` (False: off, the older
+    identity first): of the lost identities within the gate of a new cluster at one gap (0 where the
+    boxes overlap), the one whose expected box overlaps the new box most (intersection over union)
+    takes it (a long-lost ferry's identity took the cargo ship it had once passed, over the cargo
+    ship's own)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1937,6 +1953,8 @@ class ClusterParams:
     merge_min_share: float = 0.34
     gate_dv_px_s: float = 0.0
     relink_dy_h: float = 0.0
+    relink_dy_same_zoom: bool = False
+    relink_iou_tie: bool = False
 
 
 class FeatureClusterer:
@@ -2430,7 +2448,9 @@ class FeatureClusterer:
                     d_alt = gap_px(boxes[i], alt[1])
                     if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
                         d, gate, lb = d_alt, np.inf, alt[1]
-                if p.relink_dy_h > 0:  # session 22: a boat keeps its waterline's row (its range) through a loss
+                if p.relink_dy_h > 0 and (not p.relink_dy_same_zoom
+                                          or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
+                    # session 22: a boat keeps its waterline's row (its range) through a loss
                     dy = abs((boxes[i][1] + boxes[i][3]) - (lb[1] + lb[3]))
                     if dy > p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0):
                         continue
@@ -2447,9 +2467,11 @@ class FeatureClusterer:
                         continue
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
-                    pairs.append((d, i, k))
+                    # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
+                    o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
+                    pairs.append((d, -o, i, k))
         done = set()
-        for d, i, k in sorted(pairs):
+        for d, _, i, k in sorted(pairs):
             if i in done or k in present:
                 continue
             self._alias[int(cids[i])] = k
@@ -2539,7 +2561,7 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if p.relink_area_same_zoom:
+                if p.relink_area_same_zoom or p.relink_dy_same_zoom:
                     self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
