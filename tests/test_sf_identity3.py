@@ -107,3 +107,31 @@ def test_iou_tie_gives_the_best_overlapping_identity():
     assert now == a  # off: at one gap (0) the older identity goes first
     a, b, now = _two_lost_one_new(relink_iou_tie=True)
     assert now == b  # the lost box it overlaps most
+
+
+def _two_clusters_link(va, vb, **kw):
+    """Two established clusters (labels 1 and 2, two features each, at velocities ``va`` and ``vb``
+    px/s along x) and one link between them: is it kept by the graph's velocity gate (3 px/s)?"""
+    from seawatch.track.feature_clusters import _gate_links
+    lab = np.array([1, 1, 2, 2])
+    vel = np.array([[va, 0.0], [va, 0.0], [vb, 0.0], [vb, 0.0]])
+    keep = _gate_links(lab, vel, np.array([1]), np.array([2]), np.array([1, 2]), 3.0, clusters=True, **kw)
+    return bool(keep[0])
+
+
+def test_relative_gate_between_clusters():
+    assert _two_clusters_link(5.9, 3.0)  # 2.9 px/s apart: within the 3 px/s gate, joined (off)
+    assert not _two_clusters_link(5.9, 3.0, rel=0.4, rel_min=2.0)  # 0.49 of the faster: kept apart
+    assert not _two_clusters_link(5.9, 3.0, rel=0.4, rel_min=2.5)
+    assert _two_clusters_link(5.9, 3.0, rel=0.4, rel_min=3.0)  # under the floor
+    assert _two_clusters_link(12.5, 10.0, rel=0.4, rel_min=2.0)  # 2.5 px/s, 0.2 of the faster: one boat
+    assert _two_clusters_link(2.5, 1.0, rel=0.4, rel_min=2.0)  # 1.5 px/s: under the floor
+    assert not _two_clusters_link(8.0, 3.0, rel=0.4, rel_min=2.0)  # 5 px/s: the absolute gate
+    assert ClusterParams().gate_rel == 0.0
+
+
+def test_relative_gate_in_the_graph():
+    """``gate_rel`` reaches the graph's step (``FeatureClusterer``'s ``AffinityClusters``)."""
+    c = FeatureClusterer(ClusterParams(gate_rel=0.4, gate_rel_min_px_s=2.5))
+    assert c.graph.gate_rel == 0.4 and c.graph.gate_rel_min_px_s == 2.5
+    assert FeatureClusterer().graph.gate_rel == 0.0

@@ -346,7 +346,7 @@ class AffinityClusters:
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
-        min_share: float = 0.0,
+        min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -359,6 +359,8 @@ class AffinityClusters:
         self.unmerge = bool(unmerge)
         self.gate_clusters = bool(gate_clusters)
         self.min_share = float(min_share)
+        self.gate_rel = float(gate_rel)
+        self.gate_rel_min_px_s = float(gate_rel_min_px_s)
         self.reset()
 
     def reset(self) -> None:
@@ -399,7 +401,7 @@ class AffinityClusters:
 
     def _velocity_gate(self, lab, vel, li, lj, t_s, max_dv, min_age_s):
         est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
-        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters)
+        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters, self.gate_rel, self.gate_rel_min_px_s)
 
     def step(
         self,
@@ -528,14 +530,17 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
-def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False):
+def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, rel_min=0.0):
     """Which links ``(li, lj)`` may join their ends (see :meth:`AffinityClusters.step`,
     ``max_dv_px_s``): False where one end belongs to an established cluster and the other, not
     in it, has a velocity more than ``max_dv`` from the cluster's mean velocity.  With
     ``clusters`` (stop 16), also False where the two ends belong to two different established
     clusters whose mean velocities differ by more than ``max_dv``: the feature test alone lets
     a link through when the end in one cluster is a stray member of the other object (its own
-    velocity alike) and the other end's velocity is unknown."""
+    velocity alike) and the other end's velocity is unknown.  ``rel`` (session 22, 0: off; with
+    ``clusters``): two established clusters are also kept apart when their mean velocities differ by
+    more than ``rel`` times the faster one's speed and by more than ``rel_min`` (px/s): a ferry at
+    6 px/s and a rib at 3 px/s."""
     keep = np.ones(len(li), bool)
     la, lb = lab[li], lab[lj]
     cand = (la != lb) & ((la >= 0) | (lb >= 0))
@@ -574,7 +579,11 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False):
         both = cand & (a >= 0) & (b >= 0)
         if both.any():
             with np.errstate(invalid="ignore"):
-                far = np.hypot(*(vmean[a[both]] - vmean[b[both]]).T) > max_dv  # NaN: not refused
+                dvab = np.hypot(*(vmean[a[both]] - vmean[b[both]]).T)
+                far = dvab > max_dv  # NaN: not refused
+                if rel > 0:
+                    fast = np.maximum(np.hypot(*vmean[a[both]].T), np.hypot(*vmean[b[both]].T))
+                    far |= (dvab > rel * fast) & (dvab > rel_min)
             keep[np.flatnonzero(both)[far]] = False
     return keep
 
@@ -1845,7 +1854,10 @@ class ClusterParams:
     identity first): of the lost identities within the gate of a new cluster at one gap (0 where the
     boxes overlap), the one whose expected box overlaps the new box most (intersection over union)
     takes it (a long-lost ferry's identity took the cargo ship it had once passed, over the cargo
-    ship's own)."""
+    ship's own); ``gate_rel`` (0: off) with ``gate_rel_min_px_s`` (2): with ``merge_dv_clusters``, the
+    graph's velocity gate also keeps two established clusters apart whose mean velocities differ by
+    more than ``gate_rel`` times the faster one's speed and more than ``gate_rel_min_px_s`` (px/s;
+    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1955,6 +1967,8 @@ class ClusterParams:
     relink_dy_h: float = 0.0
     relink_dy_same_zoom: bool = False
     relink_iou_tie: bool = False
+    gate_rel: float = 0.0
+    gate_rel_min_px_s: float = 2.0
 
 
 class FeatureClusterer:
@@ -1984,7 +1998,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters, p.merge_min_share)
+                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
