@@ -346,7 +346,7 @@ class AffinityClusters:
     def __init__(
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
-        min_share: float = 0.0,
+        min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -359,6 +359,8 @@ class AffinityClusters:
         self.unmerge = bool(unmerge)
         self.gate_clusters = bool(gate_clusters)
         self.min_share = float(min_share)
+        self.gate_rel = float(gate_rel)
+        self.gate_rel_min_px_s = float(gate_rel_min_px_s)
         self.reset()
 
     def reset(self) -> None:
@@ -399,7 +401,7 @@ class AffinityClusters:
 
     def _velocity_gate(self, lab, vel, li, lj, t_s, max_dv, min_age_s):
         est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
-        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters)
+        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters, self.gate_rel, self.gate_rel_min_px_s)
 
     def step(
         self,
@@ -528,14 +530,17 @@ class AffinityClusters:
         return labels, np.sort(cids)
 
 
-def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False):
+def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, rel_min=0.0):
     """Which links ``(li, lj)`` may join their ends (see :meth:`AffinityClusters.step`,
     ``max_dv_px_s``): False where one end belongs to an established cluster and the other, not
     in it, has a velocity more than ``max_dv`` from the cluster's mean velocity.  With
     ``clusters`` (stop 16), also False where the two ends belong to two different established
     clusters whose mean velocities differ by more than ``max_dv``: the feature test alone lets
     a link through when the end in one cluster is a stray member of the other object (its own
-    velocity alike) and the other end's velocity is unknown."""
+    velocity alike) and the other end's velocity is unknown.  ``rel`` (session 22, 0: off; with
+    ``clusters``): two established clusters are also kept apart when their mean velocities differ by
+    more than ``rel`` times the faster one's speed and by more than ``rel_min`` (px/s): a ferry at
+    6 px/s and a rib at 3 px/s."""
     keep = np.ones(len(li), bool)
     la, lb = lab[li], lab[lj]
     cand = (la != lb) & ((la >= 0) | (lb >= 0))
@@ -574,7 +579,11 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False):
         both = cand & (a >= 0) & (b >= 0)
         if both.any():
             with np.errstate(invalid="ignore"):
-                far = np.hypot(*(vmean[a[both]] - vmean[b[both]]).T) > max_dv  # NaN: not refused
+                dvab = np.hypot(*(vmean[a[both]] - vmean[b[both]]).T)
+                far = dvab > max_dv  # NaN: not refused
+                if rel > 0:
+                    fast = np.maximum(np.hypot(*vmean[a[both]].T), np.hypot(*vmean[b[both]].T))
+                    far |= (dvab > rel * fast) & (dvab > rel_min)
             keep[np.flatnonzero(both)[far]] = False
     return keep
 
@@ -1651,6 +1660,16 @@ def _keep_edge(a0, a1, size, last):
     return a1 - size, a1
 
 
+def _iou(a, b) -> float:
+    """Intersection over union of two boxes (x, y, w, h)."""
+    iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    if iw <= 0 or ih <= 0:
+        return 0.0
+    inter = iw * ih
+    return float(inter / max(a[2] * a[3] + b[2] * b[3] - inter, 1e-12))
+
+
 def _moves_alike(v_lost, v_new, max_dv) -> bool:
     """Whether two own velocities (px/s) differ by at most ``max_dv`` (vector difference); True
     when either is unknown (None or not finite)."""
@@ -1854,7 +1873,24 @@ class ClusterParams:
     once but looked at again in the next frames (not reported while it fails) until it has failed
     for this long in a row; a small boat is often not grown in one frame and grown in the next.  Not
     in the horizon band of ``coast_search_below_px``.  On the 12 tuning sequences mean METE 0.3970 ->
-    0.3925, identity switches 48 -> 44; validation seeds 9-12 0.4120 -> 0.4089, 52 -> 52."""
+    0.3925, identity switches 48 -> 44; validation seeds 9-12 0.4120 -> 0.4089, 52 -> 52.
+
+    Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
+    is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
+    waterline) lies more than this many times the taller of the two boxes' heights above or below the
+    lost box's expected bottom: the waterline's row is the boat's range, which changes little while
+    it is lost (the right relinks on the tuning sequences moved it by at most 0.67 of the lost box's
+    height; the wrong ones that made switches by 2-44 times: a sailboat's identity on the rib
+    30 px lower, an identity lost at the image's foot on a boat near the horizon);
+    ``relink_dy_same_zoom`` (False: always): that check only when the zoom now is within 5 % of the
+    zoom at the loss (as ``relink_area_same_zoom``); ``relink_iou_tie`` (False: off, the older
+    identity first): of the lost identities within the gate of a new cluster at one gap (0 where the
+    boxes overlap), the one whose expected box overlaps the new box most (intersection over union)
+    takes it (a long-lost ferry's identity took the cargo ship it had once passed, over the cargo
+    ship's own); ``gate_rel`` (0: off) with ``gate_rel_min_px_s`` (2): with ``merge_dv_clusters``, the
+    graph's velocity gate also keeps two established clusters apart whose mean velocities differ by
+    more than ``gate_rel`` times the faster one's speed and more than ``gate_rel_min_px_s`` (px/s;
+    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -1966,6 +2002,11 @@ class ClusterParams:
     coast_search: float = 0.0
     coast_search_below_px: float = 12.0
     coast_retry_s: float = 1.0
+    relink_dy_h: float = 0.0
+    relink_dy_same_zoom: bool = False
+    relink_iou_tie: bool = False
+    gate_rel: float = 0.0
+    gate_rel_min_px_s: float = 2.0
 
 
 class FeatureClusterer:
@@ -1995,7 +2036,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters, p.merge_min_share)
+                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -2469,6 +2510,12 @@ class FeatureClusterer:
                     d_alt = gap_px(boxes[i], alt[1])
                     if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
                         d, gate, lb = d_alt, np.inf, alt[1]
+                if p.relink_dy_h > 0 and (not p.relink_dy_same_zoom
+                                          or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
+                    # session 22: a boat keeps its waterline's row (its range) through a loss
+                    dy = abs((boxes[i][1] + boxes[i][3]) - (lb[1] + lb[3]))
+                    if dy > p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0):
+                        continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
@@ -2482,9 +2529,11 @@ class FeatureClusterer:
                         continue
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
-                    pairs.append((d, i, k))
+                    # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
+                    o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
+                    pairs.append((d, -o, i, k))
         done = set()
-        for d, i, k in sorted(pairs):
+        for d, _, i, k in sorted(pairs):
             if i in done or k in present:
                 continue
             self._alias[int(cids[i])] = k
@@ -2574,7 +2623,7 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if p.relink_area_same_zoom:
+                if p.relink_area_same_zoom or p.relink_dy_same_zoom:
                     self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
