@@ -3219,7 +3219,6 @@ class FeatureClusterer:
             return empty
         return ids[ok], lbs[ok], vel[ok]
 
-
     def _below_horizon(self, boxes):
         """Whether each box's bottom lies more than ``coast_search_below_px`` (times the zoom) below
         the sea horizon (under the lower of its two ends at the box's left and right edges)."""
