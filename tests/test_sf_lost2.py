@@ -136,3 +136,23 @@ def test_no_retry_in_the_horizon_band():
     # expected box's bottom at row 64, horizon at row 60: inside the 12 px band, the coast ends as without retry
     assert retry_run(horizon_row=60.0, coast_retry_s=0.5) == [[1], [], [], []]
     assert retry_run(horizon_row=60.0, coast_retry_s=0.5, coast_search_below_px=3.0) == [[1], [], [1], [1]]
+
+
+def test_coast_max_aspect_drops_a_coasted_line():
+    # the boat's features gone; at the expected place the image shows a flat line (28 x 2 px, the
+    # horizon's texture), about the box's area: coasted without the rule, not with it
+    def line_sea(seed):
+        img = sea(seed, boat=False).astype(np.float64)
+        img[61:63, 92:120] = 60.0
+        return img.astype(np.uint8)
+
+    got = {}
+    for on in (False, True):
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=2.0, coast_max_aspect=on))
+        for k in range(6):
+            c.update(snap([[102, 61], [110, 62]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k))
+        tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), line_sea(6))[1]
+        got[on] = tr
+    assert len(got[False]) == 1 and got[False].boxes[0][2] > 12 * got[False].boxes[0][3]
+    assert len(got[True]) == 0
+    assert ClusterParams().coast_max_aspect is False

@@ -1874,6 +1874,8 @@ class ClusterParams:
     for this long in a row; a small boat is often not grown in one frame and grown in the next.  Not
     in the horizon band of ``coast_search_below_px``.  On the 12 tuning sequences mean METE 0.3970 ->
     0.3925, identity switches 48 -> 44; validation seeds 9-12 0.4120 -> 0.4089, 52 -> 52.
+    ``coast_max_aspect`` (False: off; session 22, lead): a coasted box grown to more than
+    ``max_aspect`` times wider than tall is not reported (outcome "size"), as a live report is not.
 
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
@@ -2002,6 +2004,7 @@ class ClusterParams:
     coast_search: float = 0.0
     coast_search_below_px: float = 12.0
     coast_retry_s: float = 1.0
+    coast_max_aspect: bool = False
     relink_dy_h: float = 0.0
     relink_dy_same_zoom: bool = False
     relink_iou_tie: bool = False
@@ -3170,6 +3173,8 @@ class FeatureClusterer:
             ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
+            if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
+                good &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
             searched = np.zeros(len(sel), bool)
             if p.coast_search > 0 and not good.all():  # session 22: look around the expected place
                 bad = np.flatnonzero(~good)
