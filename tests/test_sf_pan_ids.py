@@ -72,3 +72,11 @@ def test_identity_comes_back_when_the_camera_points_back():
     ids = tr.ids.tolist()
     assert first in ids and now in ids
     assert np.isclose(tr.boxes[ids.index(first)][0], 98.0, atol=2.0)
+
+
+def test_view_check_zoom_in():
+    """``relink_view_zoom_in``: the check also applies after a zoom in, not after a zoom out."""
+    first, now, _ = _lost_off_view(zoom_now=2.0, relink_view_px=20.0, relink_view_zoom_in=True)
+    assert now != first  # zoomed in since the loss: checked, refused
+    first, now, _ = _lost_off_view(zoom_now=0.5, relink_view_px=20.0, relink_view_zoom_in=True)
+    assert now == first  # zoomed out: not checked

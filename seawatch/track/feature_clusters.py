@@ -1898,7 +1898,10 @@ class ClusterParams:
     pan), so no cluster in the image is it, however far its gate has grown; it waits until the camera
     points back at it.  ``relink_view_same_zoom`` (True; False: always): that check only when the zoom
     now is within 5 % of the zoom at the loss (as ``relink_area_same_zoom``: through a zoom change the
-    carried box is less sure)."""
+    carried box is less sure); ``relink_view_zoom_in`` (False: off) widens it to any zoom at least 0.95 of
+    the zoom at the loss (the camera zoomed in or not at all since; on ``pan`` the boats left behind by
+    the pan at zoom 1 are passed again while the camera zooms back out from 3.5 to about 1.6, while
+    boxes carried through a zoom-out, lost at the full zoom, lay 170-330 px off the view from their boat)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2017,6 +2020,7 @@ class ClusterParams:
     gate_rel_min_px_s: float = 2.0
     relink_view_px: float = 0.0
     relink_view_same_zoom: bool = True
+    relink_view_zoom_in: bool = False
 
 
 class FeatureClusterer:
@@ -2687,10 +2691,13 @@ class FeatureClusterer:
     def _in_view(self, k, lb, view_wh) -> bool:
         """``relink_view_px``: whether lost identity ``k``'s expected box ``lb`` lies within
         ``relink_view_px`` pixels of the image (``view_wh``: its width and height), or the check does
-        not apply (``relink_view_same_zoom`` and the zoom changed by more than 5 % since the loss)."""
+        not apply (``relink_view_same_zoom`` and the zoom changed by more than 5 % since the loss;
+        with ``relink_view_zoom_in``, only when it fell below 0.95 of the zoom at the loss)."""
         p = self.params
-        if p.relink_view_same_zoom and not abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05:
-            return True
+        if p.relink_view_same_zoom:
+            r = self._zoom / self._lost_zoom.get(k, np.nan)
+            if not (r >= 0.95 if p.relink_view_zoom_in else abs(r - 1.0) <= 0.05):
+                return True
         w, hh = view_wh
         ox = max(-(lb[0] + lb[2]), lb[0] - w, 0.0)
         oy = max(-(lb[1] + lb[3]), lb[1] - hh, 0.0)
