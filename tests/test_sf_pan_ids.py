@@ -80,3 +80,12 @@ def test_view_check_zoom_in():
     assert now != first  # zoomed in since the loss: checked, refused
     first, now, _ = _lost_off_view(zoom_now=0.5, relink_view_px=20.0, relink_view_zoom_in=True)
     assert now == first  # zoomed out: not checked
+
+
+def test_view_margin_scaled_by_the_zoom():
+    """``relink_view_zoom_scale``: the margin is ``relink_view_px`` times the zoom now."""
+    first, now, _ = _lost_off_view(zoom_now=2.0, relink_view_px=30.0, relink_view_zoom_in=True)
+    assert now != first  # 48 px out of view, margin 30: refused
+    first, now, _ = _lost_off_view(zoom_now=2.0, relink_view_px=30.0, relink_view_zoom_in=True,
+                                   relink_view_zoom_scale=True)
+    assert now == first  # margin 30 x 2 = 60: relinked

@@ -1901,7 +1901,10 @@ class ClusterParams:
     carried box is less sure); ``relink_view_zoom_in`` (False: off) widens it to any zoom at least 0.95 of
     the zoom at the loss (the camera zoomed in or not at all since; on ``pan`` the boats left behind by
     the pan at zoom 1 are passed again while the camera zooms back out from 3.5 to about 1.6, while
-    boxes carried through a zoom-out, lost at the full zoom, lay 170-330 px off the view from their boat)."""
+    boxes carried through a zoom-out, lost at the full zoom, lay 170-330 px off the view from their boat);
+    ``relink_view_zoom_scale`` (False: off): the margin is ``relink_view_px`` times the zoom now (the
+    carried box's error is an angle: the motorboat lost at zoom 1.7 lay 240-320 px off the view from
+    where it came back at zoom 3.5)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2021,6 +2024,7 @@ class ClusterParams:
     relink_view_px: float = 0.0
     relink_view_same_zoom: bool = True
     relink_view_zoom_in: bool = False
+    relink_view_zoom_scale: bool = False
 
 
 class FeatureClusterer:
@@ -2701,7 +2705,7 @@ class FeatureClusterer:
         w, hh = view_wh
         ox = max(-(lb[0] + lb[2]), lb[0] - w, 0.0)
         oy = max(-(lb[1] + lb[3]), lb[1] - hh, 0.0)
-        return bool(np.hypot(ox, oy) <= p.relink_view_px)
+        return bool(np.hypot(ox, oy) <= p.relink_view_px * (self._zoom if p.relink_view_zoom_scale else 1.0))
 
     @staticmethod
     def _own_velocity(h, boxes, vel, dt):
