@@ -1892,7 +1892,21 @@ class ClusterParams:
     ship's own); ``gate_rel`` (0: off) with ``gate_rel_min_px_s`` (2): with ``merge_dv_clusters``, the
     graph's velocity gate also keeps two established clusters apart whose mean velocities differ by
     more than ``gate_rel`` times the faster one's speed and more than ``gate_rel_min_px_s`` (px/s;
-    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate)."""
+    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate).
+
+    Session 22 (helper H4, identities on ``pan``): ``relink_view_px`` (0: off): a lost identity whose
+    expected box (carried by the camera) lies more than this many pixels outside the image is not
+    relinked (:meth:`FeatureClusterer._relink`): its boat is out of the view (a boat left behind by a
+    pan), so no cluster in the image is it, however far its gate has grown; it waits until the camera
+    points back at it.  ``relink_view_same_zoom`` (True; False: always): that check only when the zoom
+    now is within 5 % of the zoom at the loss (as ``relink_area_same_zoom``: through a zoom change the
+    carried box is less sure); ``relink_view_zoom_in`` (False: off) widens it to any zoom at least 0.95 of
+    the zoom at the loss (the camera zoomed in or not at all since; on ``pan`` the boats left behind by
+    the pan at zoom 1 are passed again while the camera zooms back out from 3.5 to about 1.6, while
+    boxes carried through a zoom-out, lost at the full zoom, lay 170-330 px off the view from their boat);
+    ``relink_view_zoom_scale`` (False: off): the margin is ``relink_view_px`` times the zoom now (the
+    carried box's error is an angle: the motorboat lost at zoom 1.7 lay 240-320 px off the view from
+    where it came back at zoom 3.5)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2010,6 +2024,10 @@ class ClusterParams:
     relink_iou_tie: bool = False
     gate_rel: float = 0.0
     gate_rel_min_px_s: float = 2.0
+    relink_view_px: float = 0.0
+    relink_view_same_zoom: bool = True
+    relink_view_zoom_in: bool = False
+    relink_view_zoom_scale: bool = False
 
 
 class FeatureClusterer:
@@ -2502,6 +2520,9 @@ class FeatureClusterer:
         # the time lost (relink_px + relink_px_per_s per second)
         pairs = []
         sig_new = {}  # new cluster -> its appearance (relink_appearance), computed when needed
+        # relink_view_px: the image's size (width, height), None when off or unknown
+        view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
+                   else (float(snap.shape[1]), float(snap.shape[0])))
         for i in new:
             for k, (tl, lb, _) in self._lost.items():
                 if k in present:
@@ -2513,6 +2534,8 @@ class FeatureClusterer:
                     d_alt = gap_px(boxes[i], alt[1])
                     if d_alt <= p.relink_px + p.relink_px_per_s * (t - alt[0]) * self._zoom:
                         d, gate, lb = d_alt, np.inf, alt[1]
+                if view_wh is not None and not self._in_view(k, lb, view_wh):
+                    continue  # session 22: its boat is out of the view
                 if p.relink_dy_h > 0 and (not p.relink_dy_same_zoom
                                           or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
                     # session 22: a boat keeps its waterline's row (its range) through a loss
@@ -2626,7 +2649,7 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if p.relink_area_same_zoom or p.relink_dy_same_zoom:
+                if p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0:
                     self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
@@ -2671,6 +2694,21 @@ class FeatureClusterer:
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _in_view(self, k, lb, view_wh) -> bool:
+        """``relink_view_px``: whether lost identity ``k``'s expected box ``lb`` lies within
+        ``relink_view_px`` pixels of the image (``view_wh``: its width and height), or the check does
+        not apply (``relink_view_same_zoom`` and the zoom changed by more than 5 % since the loss;
+        with ``relink_view_zoom_in``, only when it fell below 0.95 of the zoom at the loss)."""
+        p = self.params
+        if p.relink_view_same_zoom:
+            r = self._zoom / self._lost_zoom.get(k, np.nan)
+            if not (r >= 0.95 if p.relink_view_zoom_in else abs(r - 1.0) <= 0.05):
+                return True
+        w, hh = view_wh
+        ox = max(-(lb[0] + lb[2]), lb[0] - w, 0.0)
+        oy = max(-(lb[1] + lb[3]), lb[1] - hh, 0.0)
+        return bool(np.hypot(ox, oy) <= p.relink_view_px * (self._zoom if p.relink_view_zoom_scale else 1.0))
 
     @staticmethod
     def _own_velocity(h, boxes, vel, dt):
