@@ -347,6 +347,7 @@ class AffinityClusters:
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
+        gate_chain: bool = False,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -361,6 +362,7 @@ class AffinityClusters:
         self.min_share = float(min_share)
         self.gate_rel = float(gate_rel)
         self.gate_rel_min_px_s = float(gate_rel_min_px_s)
+        self.gate_chain = bool(gate_chain)
         self.reset()
 
     def reset(self) -> None:
@@ -487,15 +489,23 @@ class AffinityClusters:
                                   self.alpha, self.w_cap, self.w_link)
         lab = self._label[slots].copy()
         lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
+        chain = None
         if max_dv_px_s > 0 and velocity is not None and len(li):
-            keep = self._velocity_gate(lab[sub], np.asarray(velocity, np.float64)[sub], li, lj, t_s,
-                                       max_dv_px_s, min_age_s)
+            vsub = np.asarray(velocity, np.float64)[sub]
+            keep = self._velocity_gate(lab[sub], vsub, li, lj, t_s, max_dv_px_s, min_age_s)
             li, lj = li[keep], lj[keep]
+            if self.gate_chain and self.gate_clusters and len(li):
+                est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
+                chain = _chain_components(lab[sub], vsub, li, lj, est, max_dv_px_s, self.gate_rel,
+                                          self.gate_rel_min_px_s)
         comp = np.full(n, -1, np.int64)
         if len(li):
             m = len(sub)
-            g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(m, m))
-            _, cc = connected_components(g, directed=False)
+            if chain is not None:
+                cc = chain
+            else:
+                g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(m, m))
+                _, cc = connected_components(g, directed=False)
             size = np.bincount(cc)
             big = size[cc] >= self.min_features
             # renumber the components that are clusters to 0..C-1
@@ -586,6 +596,92 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, 
                     far |= (dvab > rel * fast) & (dvab > rel_min)
             keep[np.flatnonzero(both)[far]] = False
     return keep
+
+
+def _chain_components(lab, vel, li, lj, established, max_dv, rel=0.0, rel_min=0.0):
+    """Components of the links ``(li, lj)`` among ``len(lab)`` features (``ClusterParams.gate_chain``,
+    session 22): a union of the links, taken in the order of their ends' velocity difference (the
+    links within one established cluster first; an unknown velocity last), that refuses each link
+    whose two sets hold two established clusters the cluster-pair test of :func:`_gate_links`
+    keeps apart (mean velocities more than ``max_dv`` apart, or with ``rel`` > 0 more than ``rel``
+    times the faster one's speed and more than ``rel_min``).  So two such clusters are not joined
+    through a chain of features outside them.  Returns each feature's component (a root index)."""
+    m = len(lab)
+    labels = np.unique(lab[lab >= 0])
+    labels = labels[np.isin(labels, established)]
+    nl = len(labels)
+    k = np.full(m, -1, np.int64)
+    if nl:
+        kk = np.searchsorted(labels, lab)
+        ok = (lab >= 0) & (kk < nl)
+        ok[ok] = labels[kk[ok]] == lab[ok]
+        k[ok] = kk[ok]
+    apart = np.zeros((max(nl, 1), max(nl, 1)), np.bool_)
+    if nl > 1:
+        fin = (k >= 0) & np.isfinite(vel).all(axis=1)
+        vs = np.zeros((nl, 2))
+        np.add.at(vs, k[fin], vel[fin])
+        vn = np.bincount(k[fin], minlength=nl)
+        vmean = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+        with np.errstate(invalid="ignore"):
+            dv = np.hypot(vmean[:, None, 0] - vmean[None, :, 0], vmean[:, None, 1] - vmean[None, :, 1])
+            far = dv > max_dv  # NaN (unknown): not apart
+            if rel > 0:
+                sp = np.hypot(vmean[:, 0], vmean[:, 1])
+                fast = np.maximum(sp[:, None], sp[None, :])
+                far |= (dv > rel * fast) & (dv > rel_min)
+        apart[:nl, :nl] = far
+    with np.errstate(invalid="ignore"):
+        d = np.hypot(*(vel[li] - vel[lj]).T)
+    d = np.where(np.isfinite(d), d, np.inf)
+    d = np.where((k[li] >= 0) & (k[li] == k[lj]), -1.0, d)
+    order = np.argsort(d, kind="stable")
+    return _chain_union(m, li[order], lj[order], k, apart, nl)
+
+
+@nb.njit(cache=True, nogil=True)
+def _chain_union(m, li, lj, k, apart, nl):
+    """The union-find of :func:`_chain_components`: ``has[r]`` the established clusters in the set of
+    root ``r``, ``bad[r]`` those kept apart from one of them; a link joins two sets unless one holds a
+    cluster the other keeps apart."""
+    parent = np.arange(m)
+    w = max(nl, 1)
+    has = np.zeros((m, w), np.bool_)
+    bad = np.zeros((m, w), np.bool_)
+    for i in range(m):
+        if k[i] >= 0:
+            has[i, k[i]] = True
+            for c in range(nl):
+                bad[i, c] = apart[k[i], c]
+    for e in range(len(li)):
+        a = li[e]
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        b = lj[e]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a == b:
+            continue
+        clash = False
+        for c in range(nl):
+            if (has[a, c] and bad[b, c]) or (has[b, c] and bad[a, c]):
+                clash = True
+                break
+        if clash:
+            continue
+        parent[b] = a
+        for c in range(nl):
+            has[a, c] = has[a, c] or has[b, c]
+            bad[a, c] = bad[a, c] or bad[b, c]
+    out = np.empty(m, np.int64)
+    for i in range(m):
+        r = i
+        while parent[r] != r:
+            r = parent[r]
+        out[i] = r
+    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1890,7 +1986,13 @@ class ClusterParams:
     ship's own); ``gate_rel`` (0: off) with ``gate_rel_min_px_s`` (2): with ``merge_dv_clusters``, the
     graph's velocity gate also keeps two established clusters apart whose mean velocities differ by
     more than ``gate_rel`` times the faster one's speed and more than ``gate_rel_min_px_s`` (px/s;
-    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate)."""
+    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate);
+    ``gate_chain`` (False: off; session 22, helper H3): with ``merge_dv_clusters``, two established
+    clusters that the cluster-pair test keeps apart are not joined through a chain of links either
+    (an unlabelled feature linked to both, its velocity within the gate of each: the ferry and the rib
+    on `ir` 7 at 18.3 s); the clusters are then the components of a union of the links that refuses
+    every join of two such clusters, the links taken in the order of their ends' velocity difference
+    (see :func:`_chain_components`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2007,6 +2109,7 @@ class ClusterParams:
     relink_iou_tie: bool = False
     gate_rel: float = 0.0
     gate_rel_min_px_s: float = 2.0
+    gate_chain: bool = False
 
 
 class FeatureClusterer:
@@ -2036,7 +2139,8 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s)
+                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
+                                      p.gate_chain)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
