@@ -75,3 +75,38 @@ def test_gate_chain_off_by_default_and_reaches_the_graph():
     assert ClusterParams().gate_chain is False
     assert FeatureClusterer().graph.gate_chain is False
     assert FeatureClusterer(ClusterParams(gate_chain=True)).graph.gate_chain is True
+
+
+def _split_run(**kw):
+    """Cluster A (slots 0-2, -20 px/s) and then cluster B (slots 3-6, -3 px/s) form; a bridge (2, 3)
+    merges B into the older A (no velocity gate) for 6 frames; then the bridge goes and they split.
+    Returns the labels of every frame after the bridge is gone."""
+    g = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=4.0, **kw)
+    slots, ids = np.arange(7), np.arange(10, 17)
+    vel = np.array([[-20.0, 0]] * 3 + [[-3.0, 0]] * 4)
+    a = [(0, 1), (1, 2)]
+    b = [(3, 4), (4, 5), (5, 6)]
+    t = 0.0
+    for frames, e in ((3, a), (3, a + b), (6, a + b + [(2, 3)]), (8, a + b)):
+        out = []
+        for _ in range(frames):
+            e_ = np.array(e)
+            out.append(g.step(slots, ids, e_[:, 0], e_[:, 1], t, velocity=vel)[0])
+            t += 0.1
+    return out
+
+
+def test_split_rule_paper_and_split_origin():
+    paper = _split_run()
+    assert paper[0].tolist() == [1] * 7  # merged: the oldest identity
+    # the paper: the larger part (B's four features) keeps the merged identity, A gets a new one
+    assert paper[-1].tolist()[3:] == [1] * 4 and paper[-1][0] not in (1, -1)
+    on = _split_run(split_origin_dv=3.0)
+    assert on[0].tolist() == [1] * 7
+    # split_origin: the part whose features had identity 1 before the merge (A) keeps it
+    assert on[-1].tolist()[:3] == [1] * 3 and on[-1][3] not in (1, -1)
+    # parts moving alike (within the threshold): the paper's rule
+    alike = _split_run(split_origin_dv=20.0)
+    assert [x.tolist() for x in alike] == [x.tolist() for x in paper]
+    assert ClusterParams().split_origin_dv_px_s == 0.0
+    assert FeatureClusterer(ClusterParams(split_origin_dv_px_s=3.0)).graph.split_origin_dv == 3.0

@@ -204,7 +204,8 @@ def frame_edges(
 
 
 def assign_identities(
-    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0
+    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
+    origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -219,6 +220,16 @@ def assign_identities(
         only when its features there number at least this fraction of those of the identity
         most carried in that component: one or two features remembering a dead cluster's
         identity (the label memory) do not give that older identity to the cluster they join.
+    origin, comp_vel, split_dv :
+        Not in the paper (``split_dv`` 0: off; ``ClusterParams.split_origin_dv_px_s``, session 22):
+        ``origin`` (N,) the identity each feature had before its cluster merged into an older one
+        (:class:`AffinityClusters`' origin memory), ``comp_vel`` (C, 2) each component's mean
+        velocity (px/s, NaN: unknown).  When an identity's features lie in two or more components
+        whose velocities differ by more than ``split_dv`` (a split of boats moving apart, not of one
+        boat's parts), it goes to the component holding most of its features that had it before the
+        merge (``origin`` equal to it), instead of most of its features: the rib's cluster that took
+        a few features of the fishing boat, and then the fishing boat's cluster, keeps its identity
+        on the rib when they part.  The other parts get new identities as in the paper.
 
     Returns
     -------
@@ -251,11 +262,28 @@ def assign_identities(
             pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
         order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
+        split = split_dv > 0 and origin is not None and comp_vel is not None
+        if split:
+            # features per (label, component) that carried the label before a merge too
+            mo = m & (np.asarray(origin, np.int64) == prev_labels)
+            own = collections.Counter(zip(prev_labels[mo].tolist(), comp[mo].tolist()))
         done_labels: set[int] = set()
-        for k in order:
+        for q, k in enumerate(order):
             lab_k, c_k = int(pairs[k, 0]), int(pairs[k, 1])
             if lab_k in done_labels or ids[c_k] >= 0:
                 continue
+            if split:
+                cand = [int(pairs[kk, 1]) for kk in order[q:] if int(pairs[kk, 0]) == lab_k and ids[pairs[kk, 1]] < 0]
+                if len(cand) > 1:
+                    v = comp_vel[cand]
+                    fin = np.isfinite(v).all(axis=1)
+                    if fin.sum() > 1:
+                        vf = v[fin]
+                        spread = np.hypot(vf[:, None, 0] - vf[None, :, 0], vf[:, None, 1] - vf[None, :, 1]).max()
+                        if spread > split_dv:
+                            best = max(cand, key=lambda c: own.get((lab_k, c), 0))  # first of the ties
+                            if own.get((lab_k, best), 0) > own.get((lab_k, c_k), 0):
+                                c_k = best
             ids[c_k] = lab_k
             done_labels.add(lab_k)
     for c in np.flatnonzero(ids < 0):
@@ -347,7 +375,7 @@ class AffinityClusters:
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
-        gate_chain: bool = False,
+        gate_chain: bool = False, split_origin_dv: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -363,6 +391,7 @@ class AffinityClusters:
         self.gate_rel = float(gate_rel)
         self.gate_rel_min_px_s = float(gate_rel_min_px_s)
         self.gate_chain = bool(gate_chain)
+        self.split_origin_dv = float(split_origin_dv)
         self.reset()
 
     def reset(self) -> None:
@@ -516,13 +545,24 @@ class AffinityClusters:
         if self.unmerge:
             org = self._origin[slots]
             vote = np.where((lab >= 0) & (org >= 0), org, lab)
-        cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
+        if self.split_origin_dv > 0 and not self.unmerge and velocity is not None and (comp >= 0).any():
+            vel_all = np.asarray(velocity, np.float64)
+            nc = int(comp.max()) + 1
+            fin = (comp >= 0) & np.isfinite(vel_all).all(axis=1)
+            vs = np.zeros((nc, 2))
+            np.add.at(vs, comp[fin], vel_all[fin])
+            vn = np.bincount(comp[fin], minlength=nc)
+            cvel = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, self._origin[slots],
+                                                   cvel, self.split_origin_dv)
+        else:
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
         labels[comp >= 0] = cids[comp[comp >= 0]]
         member = comp >= 0
-        if self.unmerge:
+        if self.unmerge or self.split_origin_dv > 0:
             # a feature absorbed into an older cluster keeps its origin; otherwise its origin
             # is its identity now (new feature, split part, unmerged part)
             sm = slots[member]
@@ -1992,7 +2032,11 @@ class ClusterParams:
     (an unlabelled feature linked to both, its velocity within the gate of each: the ferry and the rib
     on `ir` 7 at 18.3 s); the clusters are then the components of a union of the links that refuses
     every join of two such clusters, the links taken in the order of their ends' velocity difference
-    (see :func:`_chain_components`)."""
+    (see :func:`_chain_components`); ``split_origin_dv_px_s`` (0: off, the paper's split rule; session 22,
+    helper H3): when a cluster splits into parts moving more than this apart (px/s), its identity goes
+    to the part holding most of the features that had it before they merged (the rib's cluster took a
+    few of the fishing boat's features, then the fishing boat's young clusters, and on the split the
+    larger fishing part kept the rib's identity: `ir` 6 8.1 s; see :func:`assign_identities`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2110,6 +2154,7 @@ class ClusterParams:
     gate_rel: float = 0.0
     gate_rel_min_px_s: float = 2.0
     gate_chain: bool = False
+    split_origin_dv_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2140,7 +2185,7 @@ class FeatureClusterer:
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
-                                      p.gate_chain)
+                                      p.gate_chain, p.split_origin_dv_px_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
