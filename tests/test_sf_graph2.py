@@ -110,3 +110,11 @@ def test_split_rule_paper_and_split_origin():
     assert [x.tolist() for x in alike] == [x.tolist() for x in paper]
     assert ClusterParams().split_origin_dv_px_s == 0.0
     assert FeatureClusterer(ClusterParams(split_origin_dv_px_s=3.0)).graph.split_origin_dv == 3.0
+
+
+def test_split_origin_only_soon_after_the_merge():
+    # the split comes about 0.3-0.6 s after the bridge goes (the merge itself 0.6 s before that)
+    soon = _split_run(split_origin_dv=3.0, split_origin_s=5.0)
+    assert soon[-1].tolist()[:3] == [1] * 3  # within the window: as without a limit
+    late = _split_run(split_origin_dv=3.0, split_origin_s=0.05)
+    assert [x.tolist() for x in late] == [x.tolist() for x in _split_run()]  # too late: the paper's rule

@@ -375,7 +375,7 @@ class AffinityClusters:
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
-        gate_chain: bool = False, split_origin_dv: float = 0.0,
+        gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -392,6 +392,7 @@ class AffinityClusters:
         self.gate_rel_min_px_s = float(gate_rel_min_px_s)
         self.gate_chain = bool(gate_chain)
         self.split_origin_dv = float(split_origin_dv)
+        self.split_origin_s = float(split_origin_s)
         self.reset()
 
     def reset(self) -> None:
@@ -405,6 +406,7 @@ class AffinityClusters:
         self._has = np.zeros(0, bool)  # slots with a positive weight to some other slot
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
+        self.merged_s: dict[int, float] = {}  # split_origin_s: last time a cluster absorbed another's features
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -553,7 +555,13 @@ class AffinityClusters:
             np.add.at(vs, comp[fin], vel_all[fin])
             vn = np.bincount(comp[fin], minlength=nc)
             cvel = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
-            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, self._origin[slots],
+            org = self._origin[slots]
+            if self.split_origin_s > 0:
+                # the origin rule only for identities that absorbed another's features recently
+                recent = np.array([t_s - self.merged_s.get(int(x), -np.inf) <= self.split_origin_s for x in lab],
+                                  bool) if len(lab) else np.zeros(0, bool)
+                org = np.where(recent, org, lab)
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, org,
                                                    cvel, self.split_origin_dv)
         else:
             cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
@@ -568,6 +576,9 @@ class AffinityClusters:
             sm = slots[member]
             old = lab[member]
             keep = (old >= 0) & (labels[member] <= old) & (self._origin[sm] >= 0)
+            if self.split_origin_s > 0:
+                for x in np.unique(labels[member][(old >= 0) & (labels[member] < old)]):
+                    self.merged_s[int(x)] = float(t_s)
             self._origin[sm] = np.where(keep, self._origin[sm], labels[member])
         self._label[slots[member]] = labels[member]
         self._label_t[slots[member]] = t_s
@@ -577,6 +588,7 @@ class AffinityClusters:
             valid = self._label[(self._label >= 0) & (t_s - self._label_t <= self.label_memory_s)]
             keep = live | set(int(x) for x in np.unique(valid))
             self.birth_s = {k: v for k, v in self.birth_s.items() if k in keep}
+            self.merged_s = {k: v for k, v in self.merged_s.items() if k in keep}
         return labels, np.sort(cids)
 
 
@@ -2036,7 +2048,9 @@ class ClusterParams:
     helper H3): when a cluster splits into parts moving more than this apart (px/s), its identity goes
     to the part holding most of the features that had it before they merged (the rib's cluster took a
     few of the fishing boat's features, then the fishing boat's young clusters, and on the split the
-    larger fishing part kept the rib's identity: `ir` 6 8.1 s; see :func:`assign_identities`)."""
+    larger fishing part kept the rib's identity: `ir` 6 8.1 s; see :func:`assign_identities`); with
+    ``split_origin_s`` (0: no limit) only when the identity's cluster absorbed another identity's
+    features within this many seconds (a split long after the merge follows the paper's rule)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2155,6 +2169,7 @@ class ClusterParams:
     gate_rel_min_px_s: float = 2.0
     gate_chain: bool = False
     split_origin_dv_px_s: float = 0.0
+    split_origin_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2185,7 +2200,7 @@ class FeatureClusterer:
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
-                                      p.gate_chain, p.split_origin_dv_px_s)
+                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
