@@ -558,8 +558,14 @@ class AffinityClusters:
             org = self._origin[slots]
             if self.split_origin_s > 0:
                 # the origin rule only for identities that absorbed another's features recently
-                recent = np.array([t_s - self.merged_s.get(int(x), -np.inf) <= self.split_origin_s for x in lab],
-                                  bool) if len(lab) else np.zeros(0, bool)
+                recent = np.zeros(len(lab), bool)
+                if self.merged_s and len(lab):
+                    keys = np.fromiter(self.merged_s.keys(), np.int64, len(self.merged_s))
+                    when = np.fromiter(self.merged_s.values(), np.float64, len(self.merged_s))
+                    o = np.argsort(keys)
+                    keys, when = keys[o], when[o]
+                    i = np.minimum(np.searchsorted(keys, lab), len(keys) - 1)
+                    recent = (keys[i] == lab) & (t_s - when[i] <= self.split_origin_s)
                 org = np.where(recent, org, lab)
             cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, org,
                                                    cvel, self.split_origin_dv)
