@@ -204,7 +204,8 @@ def frame_edges(
 
 
 def assign_identities(
-    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0
+    prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
+    origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -219,6 +220,16 @@ def assign_identities(
         only when its features there number at least this fraction of those of the identity
         most carried in that component: one or two features remembering a dead cluster's
         identity (the label memory) do not give that older identity to the cluster they join.
+    origin, comp_vel, split_dv :
+        Not in the paper (``split_dv`` 0: off; ``ClusterParams.split_origin_dv_px_s``, session 22):
+        ``origin`` (N,) the identity each feature had before its cluster merged into an older one
+        (:class:`AffinityClusters`' origin memory), ``comp_vel`` (C, 2) each component's mean
+        velocity (px/s, NaN: unknown).  When an identity's features lie in two or more components
+        whose velocities differ by more than ``split_dv`` (a split of boats moving apart, not of one
+        boat's parts), it goes to the component holding most of its features that had it before the
+        merge (``origin`` equal to it), instead of most of its features: the rib's cluster that took
+        a few features of the fishing boat, and then the fishing boat's cluster, keeps its identity
+        on the rib when they part.  The other parts get new identities as in the paper.
 
     Returns
     -------
@@ -251,11 +262,28 @@ def assign_identities(
             pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
         order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
+        split = split_dv > 0 and origin is not None and comp_vel is not None
+        if split:
+            # features per (label, component) that carried the label before a merge too
+            mo = m & (np.asarray(origin, np.int64) == prev_labels)
+            own = collections.Counter(zip(prev_labels[mo].tolist(), comp[mo].tolist()))
         done_labels: set[int] = set()
-        for k in order:
+        for q, k in enumerate(order):
             lab_k, c_k = int(pairs[k, 0]), int(pairs[k, 1])
             if lab_k in done_labels or ids[c_k] >= 0:
                 continue
+            if split:
+                cand = [int(pairs[kk, 1]) for kk in order[q:] if int(pairs[kk, 0]) == lab_k and ids[pairs[kk, 1]] < 0]
+                if len(cand) > 1:
+                    v = comp_vel[cand]
+                    fin = np.isfinite(v).all(axis=1)
+                    if fin.sum() > 1:
+                        vf = v[fin]
+                        spread = np.hypot(vf[:, None, 0] - vf[None, :, 0], vf[:, None, 1] - vf[None, :, 1]).max()
+                        if spread > split_dv:
+                            best = max(cand, key=lambda c: own.get((lab_k, c), 0))  # first of the ties
+                            if own.get((lab_k, best), 0) > own.get((lab_k, c_k), 0):
+                                c_k = best
             ids[c_k] = lab_k
             done_labels.add(lab_k)
     for c in np.flatnonzero(ids < 0):
@@ -347,6 +375,7 @@ class AffinityClusters:
         self, alpha: float = 3.0, w_link: float = 1.0, w_cap: float = 15.0, min_features: int = 2,
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
+        gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -361,6 +390,9 @@ class AffinityClusters:
         self.min_share = float(min_share)
         self.gate_rel = float(gate_rel)
         self.gate_rel_min_px_s = float(gate_rel_min_px_s)
+        self.gate_chain = bool(gate_chain)
+        self.split_origin_dv = float(split_origin_dv)
+        self.split_origin_s = float(split_origin_s)
         self.reset()
 
     def reset(self) -> None:
@@ -374,6 +406,7 @@ class AffinityClusters:
         self._has = np.zeros(0, bool)  # slots with a positive weight to some other slot
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
+        self.merged_s: dict[int, float] = {}  # split_origin_s: last time a cluster absorbed another's features
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -487,15 +520,23 @@ class AffinityClusters:
                                   self.alpha, self.w_cap, self.w_link)
         lab = self._label[slots].copy()
         lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
+        chain = None
         if max_dv_px_s > 0 and velocity is not None and len(li):
-            keep = self._velocity_gate(lab[sub], np.asarray(velocity, np.float64)[sub], li, lj, t_s,
-                                       max_dv_px_s, min_age_s)
+            vsub = np.asarray(velocity, np.float64)[sub]
+            keep = self._velocity_gate(lab[sub], vsub, li, lj, t_s, max_dv_px_s, min_age_s)
             li, lj = li[keep], lj[keep]
+            if self.gate_chain and self.gate_clusters and len(li):
+                est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
+                chain = _chain_components(lab[sub], vsub, li, lj, est, max_dv_px_s, self.gate_rel,
+                                          self.gate_rel_min_px_s)
         comp = np.full(n, -1, np.int64)
         if len(li):
             m = len(sub)
-            g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(m, m))
-            _, cc = connected_components(g, directed=False)
+            if chain is not None:
+                cc = chain
+            else:
+                g = coo_matrix((np.ones(len(li)), (li, lj)), shape=(m, m))
+                _, cc = connected_components(g, directed=False)
             size = np.bincount(cc)
             big = size[cc] >= self.min_features
             # renumber the components that are clusters to 0..C-1
@@ -506,18 +547,44 @@ class AffinityClusters:
         if self.unmerge:
             org = self._origin[slots]
             vote = np.where((lab >= 0) & (org >= 0), org, lab)
-        cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
+        if self.split_origin_dv > 0 and not self.unmerge and velocity is not None and (comp >= 0).any():
+            vel_all = np.asarray(velocity, np.float64)
+            nc = int(comp.max()) + 1
+            fin = (comp >= 0) & np.isfinite(vel_all).all(axis=1)
+            vs = np.zeros((nc, 2))
+            np.add.at(vs, comp[fin], vel_all[fin])
+            vn = np.bincount(comp[fin], minlength=nc)
+            cvel = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+            org = self._origin[slots]
+            if self.split_origin_s > 0:
+                # the origin rule only for identities that absorbed another's features recently
+                recent = np.zeros(len(lab), bool)
+                if self.merged_s and len(lab):
+                    keys = np.fromiter(self.merged_s.keys(), np.int64, len(self.merged_s))
+                    when = np.fromiter(self.merged_s.values(), np.float64, len(self.merged_s))
+                    o = np.argsort(keys)
+                    keys, when = keys[o], when[o]
+                    i = np.minimum(np.searchsorted(keys, lab), len(keys) - 1)
+                    recent = (keys[i] == lab) & (t_s - when[i] <= self.split_origin_s)
+                org = np.where(recent, org, lab)
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, org,
+                                                   cvel, self.split_origin_dv)
+        else:
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
         labels[comp >= 0] = cids[comp[comp >= 0]]
         member = comp >= 0
-        if self.unmerge:
+        if self.unmerge or self.split_origin_dv > 0:
             # a feature absorbed into an older cluster keeps its origin; otherwise its origin
             # is its identity now (new feature, split part, unmerged part)
             sm = slots[member]
             old = lab[member]
             keep = (old >= 0) & (labels[member] <= old) & (self._origin[sm] >= 0)
+            if self.split_origin_s > 0:
+                for x in np.unique(labels[member][(old >= 0) & (labels[member] < old)]):
+                    self.merged_s[int(x)] = float(t_s)
             self._origin[sm] = np.where(keep, self._origin[sm], labels[member])
         self._label[slots[member]] = labels[member]
         self._label_t[slots[member]] = t_s
@@ -527,6 +594,7 @@ class AffinityClusters:
             valid = self._label[(self._label >= 0) & (t_s - self._label_t <= self.label_memory_s)]
             keep = live | set(int(x) for x in np.unique(valid))
             self.birth_s = {k: v for k, v in self.birth_s.items() if k in keep}
+            self.merged_s = {k: v for k, v in self.merged_s.items() if k in keep}
         return labels, np.sort(cids)
 
 
@@ -586,6 +654,92 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, 
                     far |= (dvab > rel * fast) & (dvab > rel_min)
             keep[np.flatnonzero(both)[far]] = False
     return keep
+
+
+def _chain_components(lab, vel, li, lj, established, max_dv, rel=0.0, rel_min=0.0):
+    """Components of the links ``(li, lj)`` among ``len(lab)`` features (``ClusterParams.gate_chain``,
+    session 22): a union of the links, taken in the order of their ends' velocity difference (the
+    links within one established cluster first; an unknown velocity last), that refuses each link
+    whose two sets hold two established clusters the cluster-pair test of :func:`_gate_links`
+    keeps apart (mean velocities more than ``max_dv`` apart, or with ``rel`` > 0 more than ``rel``
+    times the faster one's speed and more than ``rel_min``).  So two such clusters are not joined
+    through a chain of features outside them.  Returns each feature's component (a root index)."""
+    m = len(lab)
+    labels = np.unique(lab[lab >= 0])
+    labels = labels[np.isin(labels, established)]
+    nl = len(labels)
+    k = np.full(m, -1, np.int64)
+    if nl:
+        kk = np.searchsorted(labels, lab)
+        ok = (lab >= 0) & (kk < nl)
+        ok[ok] = labels[kk[ok]] == lab[ok]
+        k[ok] = kk[ok]
+    apart = np.zeros((max(nl, 1), max(nl, 1)), np.bool_)
+    if nl > 1:
+        fin = (k >= 0) & np.isfinite(vel).all(axis=1)
+        vs = np.zeros((nl, 2))
+        np.add.at(vs, k[fin], vel[fin])
+        vn = np.bincount(k[fin], minlength=nl)
+        vmean = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+        with np.errstate(invalid="ignore"):
+            dv = np.hypot(vmean[:, None, 0] - vmean[None, :, 0], vmean[:, None, 1] - vmean[None, :, 1])
+            far = dv > max_dv  # NaN (unknown): not apart
+            if rel > 0:
+                sp = np.hypot(vmean[:, 0], vmean[:, 1])
+                fast = np.maximum(sp[:, None], sp[None, :])
+                far |= (dv > rel * fast) & (dv > rel_min)
+        apart[:nl, :nl] = far
+    with np.errstate(invalid="ignore"):
+        d = np.hypot(*(vel[li] - vel[lj]).T)
+    d = np.where(np.isfinite(d), d, np.inf)
+    d = np.where((k[li] >= 0) & (k[li] == k[lj]), -1.0, d)
+    order = np.argsort(d, kind="stable")
+    return _chain_union(m, li[order], lj[order], k, apart, nl)
+
+
+@nb.njit(cache=True, nogil=True)
+def _chain_union(m, li, lj, k, apart, nl):
+    """The union-find of :func:`_chain_components`: ``has[r]`` the established clusters in the set of
+    root ``r``, ``bad[r]`` those kept apart from one of them; a link joins two sets unless one holds a
+    cluster the other keeps apart."""
+    parent = np.arange(m)
+    w = max(nl, 1)
+    has = np.zeros((m, w), np.bool_)
+    bad = np.zeros((m, w), np.bool_)
+    for i in range(m):
+        if k[i] >= 0:
+            has[i, k[i]] = True
+            for c in range(nl):
+                bad[i, c] = apart[k[i], c]
+    for e in range(len(li)):
+        a = li[e]
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        b = lj[e]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a == b:
+            continue
+        clash = False
+        for c in range(nl):
+            if (has[a, c] and bad[b, c]) or (has[b, c] and bad[a, c]):
+                clash = True
+                break
+        if clash:
+            continue
+        parent[b] = a
+        for c in range(nl):
+            has[a, c] = has[a, c] or has[b, c]
+            bad[a, c] = bad[a, c] or bad[b, c]
+    out = np.empty(m, np.int64)
+    for i in range(m):
+        r = i
+        while parent[r] != r:
+            r = parent[r]
+        out[i] = r
+    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1892,7 +2046,19 @@ class ClusterParams:
     ship's own); ``gate_rel`` (0: off) with ``gate_rel_min_px_s`` (2): with ``merge_dv_clusters``, the
     graph's velocity gate also keeps two established clusters apart whose mean velocities differ by
     more than ``gate_rel`` times the faster one's speed and more than ``gate_rel_min_px_s`` (px/s;
-    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate).
+    see :func:`_gate_links`: the ferry at 6 px/s and the rib at 3 px/s merged under the 3 px/s gate);
+    ``gate_chain`` (False: off; session 22, helper H3): with ``merge_dv_clusters``, two established
+    clusters that the cluster-pair test keeps apart are not joined through a chain of links either
+    (an unlabelled feature linked to both, its velocity within the gate of each: the ferry and the rib
+    on `ir` 7 at 18.3 s); the clusters are then the components of a union of the links that refuses
+    every join of two such clusters, the links taken in the order of their ends' velocity difference
+    (see :func:`_chain_components`); ``split_origin_dv_px_s`` (0: off, the paper's split rule; session 22,
+    helper H3): when a cluster splits into parts moving more than this apart (px/s), its identity goes
+    to the part holding most of the features that had it before they merged (the rib's cluster took a
+    few of the fishing boat's features, then the fishing boat's young clusters, and on the split the
+    larger fishing part kept the rib's identity: `ir` 6 8.1 s; see :func:`assign_identities`); with
+    ``split_origin_s`` (0: no limit) only when the identity's cluster absorbed another identity's
+    features within this many seconds (a split long after the merge follows the paper's rule).
 
     Session 22 (helper H4, identities on ``pan``): ``relink_view_px`` (0: off): a lost identity whose
     expected box (carried by the camera) lies more than this many pixels outside the image is not
@@ -2028,6 +2194,9 @@ class ClusterParams:
     relink_view_same_zoom: bool = True
     relink_view_zoom_in: bool = False
     relink_view_zoom_scale: bool = False
+    gate_chain: bool = False
+    split_origin_dv_px_s: float = 0.0
+    split_origin_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2057,7 +2226,8 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
-                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s)
+                                      p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
+                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
