@@ -8,12 +8,14 @@ from _feature_snap import snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
-# the session-21 relink checks switched off, so that only the row check acts
-OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0)
+# the session-21 relink checks and session 22's defaults switched off, so that only the check
+# under test acts
+OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0, relink_dy_h=0.0,
+           relink_iou_tie=False, relink_view_px=0.0)
 
 
-def test_default_off():
-    assert ClusterParams().relink_dy_h == 0.0
+def test_defaults_since_session_22():
+    assert ClusterParams().relink_dy_h == 1.5 and ClusterParams().relink_iou_tie is True
 
 
 def _relink_to(new_xy, **kw):
@@ -127,11 +129,12 @@ def test_relative_gate_between_clusters():
     assert _two_clusters_link(12.5, 10.0, rel=0.4, rel_min=2.0)  # 2.5 px/s, 0.2 of the faster: one boat
     assert _two_clusters_link(2.5, 1.0, rel=0.4, rel_min=2.0)  # 1.5 px/s: under the floor
     assert not _two_clusters_link(8.0, 3.0, rel=0.4, rel_min=2.0)  # 5 px/s: the absolute gate
-    assert ClusterParams().gate_rel == 0.0
+    assert ClusterParams().gate_rel == 0.4 and ClusterParams().gate_rel_min_px_s == 2.0
 
 
 def test_relative_gate_in_the_graph():
     """``gate_rel`` reaches the graph's step (``FeatureClusterer``'s ``AffinityClusters``)."""
     c = FeatureClusterer(ClusterParams(gate_rel=0.4, gate_rel_min_px_s=2.5))
     assert c.graph.gate_rel == 0.4 and c.graph.gate_rel_min_px_s == 2.5
-    assert FeatureClusterer().graph.gate_rel == 0.0
+    assert FeatureClusterer().graph.gate_rel == 0.4
+    assert FeatureClusterer(ClusterParams(gate_rel=0.0)).graph.gate_rel == 0.0

@@ -1,6 +1,6 @@
 """Session 22 (issue #8, one identity per boat on ``pan``, helper H4): a lost identity whose expected
-box (carried by the camera) lies far outside the image is not relinked (``relink_view_px``, off by
-default): its boat is out of the view; it waits until the camera points back at it."""
+box (carried by the camera) lies far outside the image is not relinked (``relink_view_px``, on by
+default since session 22): its boat is out of the view; it waits until the camera points back at it."""
 
 import numpy as np
 
@@ -8,9 +8,11 @@ from _feature_snap import snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
-# the session-21 relink checks switched off, so that only the view check acts; a wide gate
+# the session-21 relink checks and the other session-22 relink defaults switched off, so that only
+# the view check (with the options each test names) acts; a wide gate
 OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0, relink_appearance=False,
-           confirm_s=0.0, relink_s=10.0, coast_s=0.0, relink_px=200.0)
+           confirm_s=0.0, relink_s=10.0, coast_s=0.0, relink_px=200.0, relink_dy_h=0.0, relink_iou_tie=False,
+           relink_view_zoom_in=False, relink_view_zoom_scale=False)
 BOAT = [[100, 60], [130, 70]]  # a 34 x 14 px box, x 98-132
 EDGE = [[10, 60], [30, 70]]  # a cluster near the image's left edge, x 8-32
 
@@ -39,10 +41,13 @@ def _lost_off_view(zoom_now=1.0, **kw):
     return int(tr.ids[0]), int(tr2.ids[0]), c
 
 
-def test_default_off():
-    assert ClusterParams().relink_view_px == 0.0
-    first, now, _ = _lost_off_view()
+def test_defaults_and_off():
+    p = ClusterParams()
+    assert (p.relink_view_px, p.relink_view_zoom_in, p.relink_view_zoom_scale) == (120.0, True, True)
+    first, now, _ = _lost_off_view(relink_view_px=0.0)
     assert now == first  # off: within the gate, relinked (the old behaviour)
+    first, now, _ = _lost_off_view()
+    assert now == first  # the default: 48 px out of view is within 120 px (times the zoom)
 
 
 def test_no_relink_while_the_expected_box_is_out_of_view():

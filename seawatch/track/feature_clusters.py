@@ -2072,7 +2072,11 @@ class ClusterParams:
     boxes carried through a zoom-out, lost at the full zoom, lay 170-330 px off the view from their boat);
     ``relink_view_zoom_scale`` (False: off): the margin is ``relink_view_px`` times the zoom now (the
     carried box's error is an angle: the motorboat lost at zoom 1.7 lay 240-320 px off the view from
-    where it came back at zoom 3.5)."""
+    where it came back at zoom 3.5).  On by default since session 22 together with helper H2's
+    ``relink_dy_h`` 1.5, ``relink_iou_tie`` and ``gate_rel`` 0.4 (``gate_rel_min_px_s`` 2): on the 12
+    tuning sequences mean METE 0.3925 -> 0.3914, identity switches 44 -> 38 (``pan`` 25 -> 20, ``ir``
+    19 -> 18); validation seeds 9-12 0.4089 -> 0.4100, 52 -> 45 (docs/stable_features_log.md,
+    "Session 22: the lead's decisions")."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2185,15 +2189,15 @@ class ClusterParams:
     coast_search_below_px: float = 12.0
     coast_retry_s: float = 1.0
     coast_max_aspect: bool = False
-    relink_dy_h: float = 0.0
+    relink_dy_h: float = 1.5
     relink_dy_same_zoom: bool = False
-    relink_iou_tie: bool = False
-    gate_rel: float = 0.0
+    relink_iou_tie: bool = True
+    gate_rel: float = 0.4
     gate_rel_min_px_s: float = 2.0
-    relink_view_px: float = 0.0
+    relink_view_px: float = 120.0
     relink_view_same_zoom: bool = True
-    relink_view_zoom_in: bool = False
-    relink_view_zoom_scale: bool = False
+    relink_view_zoom_in: bool = True
+    relink_view_zoom_scale: bool = True
     gate_chain: bool = False
     split_origin_dv_px_s: float = 0.0
     split_origin_s: float = 0.0
