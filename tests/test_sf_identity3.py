@@ -18,18 +18,18 @@ def test_defaults_since_session_22():
     assert ClusterParams().relink_dy_h == 1.5 and ClusterParams().relink_iou_tie is True
 
 
-def _relink_to(new_xy, **kw):
+def _relink_to(new_xy, zoom=1.0, **kw):
     """A cluster of two features at (100, 60) and (130, 70) (a 34 x 14 px box, bottom at 72) is lost
-    at 0.2 s; at 0.5 s a cluster of two features at ``new_xy`` appears within the relink gate
-    (20 px + 10 px/s * 0.3 s).  Returns (the lost identity, the new report's identity and box, the
-    clusterer)."""
+    at 0.2 s; at 0.5 s (at ``zoom``) a cluster of two features at ``new_xy`` appears within the
+    relink gate (20 px + 10 px/s * 0.3 s).  Returns (the lost identity, the new report's identity and
+    box, the clusterer)."""
     c = FeatureClusterer(ClusterParams(**{**OFF, **dict(confirm_s=0.0, relink_s=10.0, coast_s=0.0), **kw}))
     vel = [[20.0, 0.0]] * 2
     _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
     c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
     for k in range(2, 5):
         c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
-    _, tr2 = c.update(snap(new_xy, vel, 0.5, 5, ids=[3, 4]))
+    _, tr2 = c.update(snap(new_xy, vel, 0.5, 5, ids=[3, 4]), zoom=zoom)
     assert len(tr2) == 1
     return int(tr.ids[0]), int(tr2.ids[0]), tr2.boxes[0], c
 
@@ -68,14 +68,7 @@ def test_row_check_only_at_the_same_zoom():
     """``relink_dy_same_zoom``: the row check applies only when the zoom is (within 5 %) the one at
     the loss."""
     def run(zoom_now, **kw):
-        c = FeatureClusterer(ClusterParams(**{**OFF, **dict(confirm_s=0.0, relink_s=10.0, coast_s=0.0), **kw}))
-        vel = [[20.0, 0.0]] * 2
-        _, tr = c.update(snap([[100, 60], [130, 70]], vel, 0.0, 0, ids=[1, 2]))
-        c.update(snap([[100, 60], [130, 70]], vel, 0.1, 1, ids=[1, 2]))
-        for k in range(2, 5):
-            c.update(snap(*EMPTY, 0.1 * k, k, ids=[]))
-        _, tr2 = c.update(snap(LOWER, vel, 0.5, 5, ids=[3, 4]), zoom=zoom_now)
-        return int(tr.ids[0]), int(tr2.ids[0])
+        return _relink_to(LOWER, zoom=zoom_now, **kw)[:2]
 
     first, now = run(1.04, relink_dy_h=1.5, relink_dy_same_zoom=True)
     assert now != first  # the same zoom: checked, refused
