@@ -6,6 +6,8 @@ with the same ``--params`` and ``--cache`` and prints one line per sequence, the
 scenario and over all, and the total of identity switches (CLEAR-MOT at IoU 0.3, as
 ``sf_diagnose.py`` prints it).  The seeds 0, 3 and 4 and MarDCT video2 are evaluation sets: the
 script refuses them unless ``--allow-eval`` is given (for a bench-like check that is not tuning).
+Seeds 9-12 are the validation seeds (session 22): a candidate that passed on the tuning seeds is
+checked there once (``--validation``); nothing is diagnosed on them.
 
 Example::
 
@@ -24,6 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 EVAL_SEEDS = {0, 3, 4}
+VALIDATION_SEEDS = [9, 10, 11, 12]
 LINE = re.compile(r"METE ([0-9.]+) \(accuracy ([0-9.]+) \+ cardinality ([0-9.]+)\) IDSW (\d+) MELT ([0-9.]+)")
 
 
@@ -35,6 +38,7 @@ def _parse(argv):
     ap.add_argument("--cache", default=None, metavar="DIR", help="sf_diagnose.py's snapshot cache directory")
     ap.add_argument("--scenarios", default="pan,ir", help="comma-separated scenarios (default pan,ir)")
     ap.add_argument("--seeds", default="1,2,5,6,7,8", help="comma-separated seeds (default the tuning seeds)")
+    ap.add_argument("--validation", action="store_true", help="the validation seeds 9-12 instead of --seeds")
     ap.add_argument("--jobs", type=int, default=2, help="sequences run at once (default 2)")
     ap.add_argument("--json", default=None, metavar="FILE", help="append one JSON line with the results")
     ap.add_argument("--allow-eval", action="store_true", help="allow the evaluation seeds 0, 3, 4")
@@ -59,7 +63,7 @@ def main(argv=None) -> int:
     args = _parse(argv)
     try:
         json.loads(args.params)
-        seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
+        seeds = VALIDATION_SEEDS if args.validation else [int(s) for s in args.seeds.split(",") if s.strip()]
     except ValueError as exc:
         print(f"sf_tuneset: bad --params or --seeds: {exc}", file=sys.stderr)
         return 2
