@@ -1635,9 +1635,20 @@ def _box_members_nb(k, vel, n, max_dv, anchor):
     return keep
 
 
+def _box_iou(a, b) -> float:
+    """Intersection over union of two boxes ``x, y, w, h`` (0 when either is empty)."""
+    iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    if not (iw > 0 and ih > 0):
+        return 0.0
+    inter = iw * ih
+    union = a[2] * a[3] + b[2] * b[3] - inter
+    return float(inter / union) if union > 0 else 0.0
+
+
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
                        sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
-                       id_ratio=2.0, id_apart=False):
+                       id_ratio=2.0, id_apart=False, prev=None, keep_iou=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -1662,7 +1673,13 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     boat does not give that boat its older identity.  The kept identity comes first in its
     ``groups`` entry.  ``id_apart`` (with ``id_dv``): two reports whose largest clusters move
     differently and of which neither holds ``id_ratio`` times the other's features are not joined
-    (two boats of like size passing each other stay two reports)."""
+    (two boats of like size passing each other stay two reports).  ``prev`` (a dict: cluster
+    identity -> its report's box in the frame before, carried to this frame) with ``keep_iou`` > 0
+    (session 22, H5): a joined report takes the identity of the member whose box in ``prev``
+    overlaps the joined box most (IoU), when that IoU is at least ``keep_iou``, whatever the
+    rules above say: a report joined from the same clusters keeps the identity it had, and a small
+    boat's cluster inside a big boat's box does not give the big boat's report its older identity
+    frame by frame as the join comes and goes."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     n0 = count.copy()  # each cluster's own feature count and velocity, before any join
@@ -1736,6 +1753,22 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             keep = min(alike)  # the oldest that moves with the largest cluster
             cids[i] = cids[keep]
             members[i] = [int(cids[keep])] + [c for c in members[i] if c != int(cids[keep])]
+    if prev and keep_iou > 0:
+        cids = cids.copy()
+        for i in np.flatnonzero(alive):
+            if len(members[i]) < 2:
+                continue
+            best, best_iou = None, keep_iou
+            for c in members[i]:  # the kept identity first: it wins ties
+                pb = prev.get(c)
+                if pb is None:
+                    continue
+                u = _box_iou(boxes[i], pb)
+                if u >= best_iou and (best is None or u > best_iou):
+                    best, best_iou = c, u
+            if best is not None:
+                cids[i] = best
+                members[i] = [best] + [c for c in members[i] if c != best]
     if groups is not None:
         groups.extend(members[i] for i in np.flatnonzero(alive))
     return cids[alive], boxes[alive], count[alive], vel[alive]
@@ -2015,6 +2048,13 @@ class ClusterParams:
     fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
     velocity gate (:meth:`AffinityClusters.step`) alone at this value.
 
+    Session 22 (helper H5, the joined report's identity): ``merge_id_keep_iou`` (0: off): a report
+    joined from several clusters (:func:`_merge_overlapping`) takes the identity of the member whose
+    report in the frame before (its box carried by the camera motion) overlaps the joined box most,
+    when that IoU is at least this (otherwise the rules above): on ``ir`` the fishing boat's small
+    cluster inside the ferry's box gave the ferry's report its older identity in the frames where
+    the two were joined, and the ferry's own back in those where they were not.
+
     Session 22 (helper H1, boats lost after they were first found on ``pan``): ``coast_search``
     (0: off): a coast whose grow at the expected box fails (not found, contrast or size) looks again
     from cores shifted by up to this many box widths and heights (steps of half a box) and takes the
@@ -2184,6 +2224,7 @@ class ClusterParams:
     merge_id_ratio: float = 2.0
     merge_id_apart: bool = False
     merge_min_share: float = 0.34
+    merge_id_keep_iou: float = 0.0
     gate_dv_px_s: float = 0.0
     coast_search: float = 0.0
     coast_search_below_px: float = 12.0
@@ -2294,6 +2335,8 @@ class FeatureClusterer:
         self._coast_fail: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
+        self._report_last: dict = {}  # merge_id_keep_iou: cluster identity -> its report's box (frame _report_last_t)
+        self._report_last_t = -1
         # (time, identity, box, outcome) of each coast looked at (coast_s; the last 2000, for diagnosis);
         # outcome: "reported", "searched" (coast_search), "outside", "overlap", "contrast", "not found", "size",
         # "no image"
@@ -3250,12 +3293,21 @@ class FeatureClusterer:
             if p.coast_skip_merged_zoom:
                 skip_dv *= self._zoom
             groups = []
+            prev = None
+            if p.merge_id_keep_iou > 0 and self._report_last and self._report_last_t == self._cluster_boxes_now:
+                # each report's box in the frame before, carried by the camera motion
+                hmg = np.asarray(snap.homography, np.float64)
+                fin = bool(np.all(np.isfinite(hmg)))
+                prev = {c: (_carry_box(b, hmg) if fin else b) for c, b in self._report_last.items()}
             cids, boxes, count, vel = _merge_overlapping(cids, boxes, count, vel, p.merge_overlap, rv,
                                                          p.merge_gap_h, p.merge_dv_px_s, p.merge_gap_min_px,
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
                                                          p.merge_keep_gap_h, self._apart or None,
                                                          p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
-                                                         p.merge_id_apart)
+                                                         p.merge_id_apart, prev, p.merge_id_keep_iou)
+            if p.merge_id_keep_iou > 0:
+                self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
+                self._report_last_t = fi
             self._merged = [(snap.ids[np.isin(labels, g)], boxes[i].copy()) for i, g in enumerate(groups) if len(g) > 1]
             self._merged_t = t
             # session 20 (coast_skip_merged): the identities of the clusters joined into another's report
