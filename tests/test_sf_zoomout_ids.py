@@ -60,3 +60,19 @@ def test_needs_relink_area_same_zoom():
     looser one adds nothing."""
     took, _ = _relinked(FRAG, 2.0, relink_area_same_zoom=False, relink_min_area=0.0, relink_area_zoom_min=0.15)
     assert took
+
+
+WIDE_LOW = [[150, 65], [190, 66]]  # as wide as the boat, low: a 44 x 5 px box (area x0.46, height x0.36)
+NARROW = [[150, 60], [152, 70]]  # narrow, as tall: a 6 x 14 px box (area x0.18, height 1.0)
+
+
+def test_height_check_through_a_zoom_change():
+    assert ClusterParams().relink_height_zoom_min == 0.0
+    took, _ = _relinked(WIDE_LOW, 2.0)
+    assert took  # off: relinked
+    took, c = _relinked(WIDE_LOW, 2.0, relink_height_zoom_min=0.5)
+    assert not took and len(c._lost) == 1  # height x0.36 < 0.5: refused
+    took, _ = _relinked(NARROW, 2.0, relink_height_zoom_min=0.5)
+    assert took  # a narrow cluster of the boat's height (a boat entering the view) is relinked
+    took, _ = _relinked(NARROW, 2.0, relink_area_zoom_min=0.25)
+    assert not took  # the area check refuses it
