@@ -2116,7 +2116,17 @@ class ClusterParams:
     ``relink_dy_h`` 1.5, ``relink_iou_tie`` and ``gate_rel`` 0.4 (``gate_rel_min_px_s`` 2): on the 12
     tuning sequences mean METE 0.3925 -> 0.3914, identity switches 44 -> 38 (``pan`` 25 -> 20, ``ir``
     19 -> 18); validation seeds 9-12 0.4089 -> 0.4100, 52 -> 45 (docs/stable_features_log.md,
-    "Session 22: the lead's decisions")."""
+    "Session 22: the lead's decisions").
+
+    Session 22 (helper H6, identities at ``pan``'s zoom-out): ``relink_area_zoom_min`` (0: off): when
+    ``relink_area_same_zoom`` skips the ``relink_min_area`` check (the zoom changed by more than 5 %
+    since the loss), a lost identity is still not relinked to a new cluster whose box is less than this
+    fraction of the lost box's area (carried through the zoom): a looser check for the less sure carried
+    size (on ``pan`` 6 the motorboat's identity, lost at zoom 1.7 and carried to 121 x 31 px at zoom 3.5,
+    went at 28.0 s to a 35 x 6 px fragment, area x0.06, while the boat's own 113 x 30 px cluster came
+    0.4-1 s later).  ``relink_height_zoom_min`` (0: off): the same with the boxes' heights (a boat
+    entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
+    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2242,6 +2252,8 @@ class ClusterParams:
     gate_chain: bool = False
     split_origin_dv_px_s: float = 0.0
     split_origin_s: float = 0.0
+    relink_area_zoom_min: float = 0.0
+    relink_height_zoom_min: float = 0.0
 
 
 class FeatureClusterer:
@@ -2767,6 +2779,11 @@ class FeatureClusterer:
                         and (not p.relink_area_same_zoom
                              or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
                     continue  # session 21: a large boat's identity is not given to a much smaller cluster
+                if ((p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0) and p.relink_area_same_zoom
+                        and not abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05
+                        and (boxes[i][2] * boxes[i][3] < p.relink_area_zoom_min * lb[2] * lb[3]
+                             or boxes[i][3] < p.relink_height_zoom_min * lb[3])):
+                    continue  # session 22 (H6): the same, looser, through a zoom change
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
@@ -2866,7 +2883,8 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0:
+                if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
+                        or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
                 if p.relink_dv_px_s > 0 or p.hand_over_dv_px_s > 0:
                     self._lost_v[k] = self._own_prev.get(k)
