@@ -19,7 +19,7 @@ def _merge(prev=None, keep_iou=0.0, cids=CIDS, boxes=BOXES):
 
 
 def test_off_keeps_the_oldest():
-    assert ClusterParams().merge_id_keep_iou == 0.0
+    assert ClusterParams().merge_id_keep_iou == 0.3  # on by default since session 22
     c, b, n, groups = _merge()
     assert c.tolist() == [4] and groups == [[4, 32]] and n.tolist() == [23]
     # prev given but keep_iou 0: off

@@ -67,8 +67,8 @@ NARROW = [[150, 60], [152, 70]]  # narrow, as tall: a 6 x 14 px box (area x0.18,
 
 
 def test_height_check_through_a_zoom_change():
-    assert ClusterParams().relink_height_zoom_min == 0.0
-    took, _ = _relinked(WIDE_LOW, 2.0)
+    assert ClusterParams().relink_height_zoom_min == 0.3  # on by default since session 22
+    took, _ = _relinked(WIDE_LOW, 2.0, relink_height_zoom_min=0.0)
     assert took  # off: relinked
     took, c = _relinked(WIDE_LOW, 2.0, relink_height_zoom_min=0.5)
     assert not took and len(c._lost) == 1  # height x0.36 < 0.5: refused

@@ -2048,7 +2048,7 @@ class ClusterParams:
     fishing boat passing each other swapped the joined report's identity); ``gate_dv_px_s`` (0: ``merge_dv_px_s``): the graph's
     velocity gate (:meth:`AffinityClusters.step`) alone at this value.
 
-    Session 22 (helper H5, the joined report's identity): ``merge_id_keep_iou`` (0: off): a report
+    Session 22 (helper H5, the joined report's identity): ``merge_id_keep_iou`` (0.3, on by default since session 22 with ``relink_height_zoom_min`` 0.3; 0: off): a report
     joined from several clusters (:func:`_merge_overlapping`) takes the identity of the member whose
     report in the frame before (its box carried by the camera motion) overlaps the joined box most,
     when that IoU is at least this (otherwise the rules above): on ``ir`` the fishing boat's small
@@ -2124,7 +2124,7 @@ class ClusterParams:
     fraction of the lost box's area (carried through the zoom): a looser check for the less sure carried
     size (on ``pan`` 6 the motorboat's identity, lost at zoom 1.7 and carried to 121 x 31 px at zoom 3.5,
     went at 28.0 s to a 35 x 6 px fragment, area x0.06, while the boat's own 113 x 30 px cluster came
-    0.4-1 s later).  ``relink_height_zoom_min`` (0: off): the same with the boxes' heights (a boat
+    0.4-1 s later).  ``relink_height_zoom_min`` (0.3, on by default since session 22; 0: off): the same with the boxes' heights (a boat
     entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
     at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19)."""
 
@@ -2234,7 +2234,7 @@ class ClusterParams:
     merge_id_ratio: float = 2.0
     merge_id_apart: bool = False
     merge_min_share: float = 0.34
-    merge_id_keep_iou: float = 0.0
+    merge_id_keep_iou: float = 0.3
     gate_dv_px_s: float = 0.0
     coast_search: float = 0.0
     coast_search_below_px: float = 12.0
@@ -2253,7 +2253,7 @@ class ClusterParams:
     split_origin_dv_px_s: float = 0.0
     split_origin_s: float = 0.0
     relink_area_zoom_min: float = 0.0
-    relink_height_zoom_min: float = 0.0
+    relink_height_zoom_min: float = 0.3
 
 
 class FeatureClusterer:
