@@ -258,7 +258,7 @@ def _process(trk, frame, snap=None, record=None):
     """``trk.process(frame)`` with the extractor's snapshot given (``snap``: replay) or kept
     (``record``, a list that receives it pickled); the same steps as
     ``StableFeatureTracker.process``.  Returns the tracks."""
-    from seawatch.types import TrackState
+    from seawatch.types import Modality, TrackState
 
     hz, zoom, prior = trk.extractor_inputs(frame)
     # the extractor's input (the rendered frame, the horizon it is given, the zoom; the motion
@@ -281,7 +281,8 @@ def _process(trk, frame, snap=None, record=None):
     trk.last_snapshot = snap
     trk.last_horizon = hz
     trk.clusterer.camera_id = frame.camera_id
-    _, tracks = trk.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=trk._frame_camera)
+    _, tracks = trk.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=trk._frame_camera,
+                                     ir=frame.modality == Modality.IR)
     if not trk.report_tentative and len(tracks):
         tracks = tracks.subset(tracks.states != int(TrackState.TENTATIVE))
     return tracks

@@ -38,7 +38,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from seawatch.detect.features import FeatureSnapshot, StableFeatureExtractor, to_grey_u8
-from seawatch.types import Detections, Frame, Tracks, TrackState
+from seawatch.types import Detections, Frame, Modality, Tracks, TrackState
 
 __all__ = [
     "NO_COMMON_FRAME",
@@ -1902,7 +1902,9 @@ class ClusterParams:
     across the image faster than ``wake_min_px_s`` relative to the scene loses a long run of low
     columns on its trailing side (its wake); ``top_frac`` (0.35; 0 off): the box's top goes up
     to the foreground found at this fraction of the core's contrast (a superstructure against
-    the sky); see :func:`grow_boxes`; ``max_aspect`` (12; 0 off): a report whose box is more
+    the sky); see :func:`grow_boxes`; ``top_frac_ir`` (session 23; None: ``top_frac``): the same
+    fraction on infrared frames (``FeatureClusterer.update(..., ir=True)``), where no bright sky
+    hides a superstructure; ``max_aspect`` (12; 0 off): a report whose box is more
     than this many times wider than tall is dropped (the foot of a coast, the horizon).
     ``merge_dv_px_s`` is 3 px/s since stop 15 (5 before).
     Stop 16: ``cut_core_frac`` (0: off; 0.6 with ``cut_core_undo`` True is the variant tried
@@ -2171,6 +2173,7 @@ class ClusterParams:
     wake_frac: float = 0.3
     wake_min_px_s: float = 5.0
     top_frac: float = 0.35
+    top_frac_ir: float | None = None
     max_aspect: float = 12.0
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
@@ -2282,6 +2285,7 @@ class FeatureClusterer:
         self.source = source
         self.camera_id = camera_id
         p = self.params
+        self._top_frac = p.top_frac  # this frame's superstructure fraction (``update``'s ``ir``)
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
                                       p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
@@ -3088,7 +3092,7 @@ class FeatureClusterer:
         self.camera_err_px_s = e if not np.isfinite(self.camera_err_px_s) else (1 - a) * self.camera_err_px_s + a * e
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
-               horizon=None, zoom: float = 1.0, camera=None) -> tuple[Detections, Tracks]:
+               horizon=None, zoom: float = 1.0, camera=None, ir: bool = False) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
 
         ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
@@ -3097,8 +3101,10 @@ class FeatureClusterer:
         pixels) marks the water, from ``params.water_margin_px`` times ``zoom`` (the camera's
         zoom factor, 1 at its widest) below it: with ``params.still_radius_px`` > 0, still stable
         features there are clustered too (see :func:`frame_edges`).  The margin leaves out the
-        foot of a distant coast, which lies a few pixels below the sea horizon."""
+        foot of a distant coast, which lies a few pixels below the sea horizon.  ``ir`` says the
+        frame is infrared (``params.top_frac_ir`` then replaces ``params.top_frac``)."""
         p = self.params
+        self._top_frac = p.top_frac_ir if (ir and p.top_frac_ir is not None) else p.top_frac
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
@@ -3248,7 +3254,7 @@ class FeatureClusterer:
             boxes, self.last_contrast, found = grow_boxes(
                 img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
-                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=p.top_frac,
+                waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=self._top_frac,
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
@@ -3451,7 +3457,7 @@ class FeatureClusterer:
             grown, contrast, found = grow_boxes(img, b, cores, grow=max(p.grow_box, 0.5),
                                                 peak_frac=p.grow_peak_frac, return_found=True,
                                                 wide_grow_px=p.grow_wide_px, waterline_frac=p.waterline_frac,
-                                                top_frac=p.top_frac)
+                                                top_frac=self._top_frac)
             ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
@@ -3548,7 +3554,7 @@ class FeatureClusterer:
                          axis=1)
         grown, contrast, found = grow_boxes(img, s_, cores, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
                                             return_found=True, wide_grow_px=p.grow_wide_px,
-                                            waterline_frac=p.waterline_frac, top_frac=p.top_frac)
+                                            waterline_frac=p.waterline_frac, top_frac=self._top_frac)
         e = bb[idx]
         ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(e[:, 2] * e[:, 3], 1e-9)
         good = found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio) & (ratio >= 1 / p.coast_size_ratio)
@@ -3682,8 +3688,6 @@ class StableFeatureTracker:
             return None
         if self._horizon_tracker is None:
             self._horizon_tracker = HorizonTracker(every_s=self.horizon_every_s)
-        from seawatch.types import Modality
-
         return self._horizon_tracker.update(frame.image, frame.t_s, ir=frame.modality == Modality.IR)
 
     @classmethod
@@ -3732,7 +3736,8 @@ class StableFeatureTracker:
         self.last_snapshot = snap
         self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
-        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=self._frame_camera)
+        dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=self._frame_camera,
+                                             ir=frame.modality == Modality.IR)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
