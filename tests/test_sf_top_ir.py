@@ -28,6 +28,11 @@ def report(params, ir):
 BASE = dict(confirm_s=0.0, top_frac=0.25)
 
 
+def test_defaults_extend_further_on_eo_than_on_ir():
+    p = ClusterParams()
+    assert p.top_frac == 0.2 and p.top_frac_ir == 0.35
+
+
 def test_ir_frames_use_their_own_fraction_and_eo_frames_keep_top_frac():
     p = ClusterParams(**BASE, top_frac_ir=0.5)  # 0.5 = grow_peak_frac: no extension on IR
     assert report(p, ir=False) == pytest.approx([100, 40, 50, 32])  # EO: the bridge is in the box
@@ -35,6 +40,5 @@ def test_ir_frames_use_their_own_fraction_and_eo_frames_keep_top_frac():
 
 
 def test_without_top_frac_ir_both_modalities_use_top_frac():
-    p = ClusterParams(**BASE)
-    assert p.top_frac_ir is None
+    p = ClusterParams(**BASE, top_frac_ir=None)
     assert report(p, ir=True) == report(p, ir=False) == pytest.approx([100, 40, 50, 32])

@@ -1900,9 +1900,10 @@ class ClusterParams:
     lowest row whose contrast reaches half the strongest row's (the reflection is cut);
     ``wake_frac`` (0.3; 0 off) with ``wake_min_px_s`` (5): a cluster whose box members move
     across the image faster than ``wake_min_px_s`` relative to the scene loses a long run of low
-    columns on its trailing side (its wake); ``top_frac`` (0.35; 0 off): the box's top goes up
+    columns on its trailing side (its wake); ``top_frac`` (0.2 since session 23, 0.35 before; 0
+    off): the box's top goes up
     to the foreground found at this fraction of the core's contrast (a superstructure against
-    the sky); see :func:`grow_boxes`; ``top_frac_ir`` (session 23; None: ``top_frac``): the same
+    the sky); see :func:`grow_boxes`; ``top_frac_ir`` (0.35, session 23; None: ``top_frac``): the
     fraction on infrared frames (``FeatureClusterer.update(..., ir=True)``), where no bright sky
     hides a superstructure; ``max_aspect`` (12; 0 off): a report whose box is more
     than this many times wider than tall is dropped (the foot of a coast, the horizon).
@@ -2172,8 +2173,8 @@ class ClusterParams:
     waterline_frac: float = 0.5
     wake_frac: float = 0.3
     wake_min_px_s: float = 5.0
-    top_frac: float = 0.35
-    top_frac_ir: float | None = None
+    top_frac: float = 0.2
+    top_frac_ir: float | None = 0.35
     max_aspect: float = 12.0
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
