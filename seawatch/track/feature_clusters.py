@@ -203,6 +203,29 @@ def frame_edges(
     return np.minimum(i, j), np.maximum(i, j), d
 
 
+def _far_still(xy: np.ndarray, row: np.ndarray, zoom: float, p) -> np.ndarray:
+    """Stable features inside the water margin that may still be joined as still objects
+    (session 23, ``ClusterParams.far_top_px``; 0: off): those lying between ``far_top_px`` and
+    ``water_margin_px`` (times the zoom) under the horizon (the waterline of a ship far out, about
+    5-8 px under it at any zoom) in columns that hold no coast: no stable feature lies between
+    ``far_coast_gap_px`` and ``far_coast_px`` (times the zoom) above the horizon within
+    ``far_cols_px`` (times the zoom) of their column (a distant coast shows features above the
+    horizon; a ship's own superstructure rises only a few pixels above it, which the gap leaves out).
+
+    ``xy`` (N, 2) the stable features, ``row`` (N,) the horizon's row at each one's column (NaN:
+    none).  Returns (N,) bool."""
+    ok = np.isfinite(row)
+    y = xy[:, 1]
+    with np.errstate(invalid="ignore"):
+        band = ok & (y > row + p.far_top_px * zoom) & (y <= row + p.water_margin_px * zoom)
+        up = ok & (y < row - p.far_coast_gap_px * zoom) & (y >= row - p.far_coast_px * zoom)
+    if band.any() and up.any():
+        dx = np.abs(xy[band, 0][:, None] - xy[up, 0][None, :]).min(axis=1)
+        b = np.flatnonzero(band)
+        band[b[dx <= p.far_cols_px * zoom]] = False
+    return band
+
+
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
@@ -2254,6 +2277,10 @@ class ClusterParams:
     split_origin_s: float = 0.0
     relink_area_zoom_min: float = 0.0
     relink_height_zoom_min: float = 0.3
+    far_top_px: float = 0.0
+    far_coast_px: float = 20.0
+    far_coast_gap_px: float = 4.0
+    far_cols_px: float = 30.0
 
 
 class FeatureClusterer:
@@ -3111,6 +3138,8 @@ class FeatureClusterer:
         if horizon is not None and p.still_radius_px > 0 and len(st):
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
             still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
+            if p.far_top_px > 0:
+                still |= _far_still(snap.xy[st], row, max(float(zoom), 1e-3), p)
         floor = self.min_speed_px_s
         if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
             # the lowered floor only near the horizon; elsewhere the floor without this step
