@@ -226,6 +226,49 @@ def _far_still(xy: np.ndarray, row: np.ndarray, zoom: float, p) -> np.ndarray:
     return band
 
 
+def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.ndarray:
+    """Whether open sea lies beside each column ``x`` (session 23, ``ClusterParams.far_open_px``):
+    at ``far_open_px`` (times the zoom) to the left or to the right of it, the rows from 3 to 1 px
+    (times the zoom) above the horizon are sky: each within ``far_sky_tol`` grey levels (or a quarter
+    of the sky-sea contrast, if larger) of the sky 14-20 px (times the zoom) above the horizon in
+    that column (7 columns averaged).  The foot of a coast lies under a dark strip that rises a few
+    pixels above the horizon and runs on for hundreds of pixels; a ship far out has open sea on at
+    least one side.  A side outside the image is not open.  Returns (N,) bool."""
+    img = np.asarray(image)
+    if img.ndim == 3 or img.dtype != np.uint8:
+        img = to_grey_u8(img)
+    h, w = img.shape[:2]
+    x = np.asarray(x, np.float64)
+    d = p.far_open_px * zoom
+    xs = np.round(np.concatenate([x - d, x + d])).astype(np.int64)  # the two sides
+    inside = (xs >= 3) & (xs < w - 3)
+    xs = np.clip(xs, 3, max(w - 4, 3))
+    row = np.asarray(horizon.row_at(xs.astype(np.float64)), np.float64)
+    inside &= np.isfinite(row)
+    row = np.where(np.isfinite(row), row, 0.0)
+    near = np.arange(int(np.floor(-3 * zoom)), int(np.floor(-1 * zoom)) + 1)
+    sky = np.arange(int(np.floor(-20 * zoom)), int(np.floor(-14 * zoom)) + 1)
+    sea = np.arange(int(np.floor((p.water_margin_px + 2) * zoom)), int(np.floor((p.water_margin_px + 6) * zoom)) + 1)
+    r0 = np.floor(row).astype(np.int64)
+    inside &= (r0 + sky[0] >= 0) & (r0 + sea[-1] < h)
+    lo = int(max(np.min(r0 + sky[0]), 0))
+    hi = int(min(np.max(r0 + sea[-1]) + 1, h))
+    if hi <= lo or not inside.any():
+        return np.zeros(len(x), bool)
+    strip = cv2.blur(img[lo:hi].astype(np.float32), (7, 1))  # 7 columns averaged
+
+    def rows(off):
+        rr = np.clip(r0[:, None] + off[None, :] - lo, 0, hi - lo - 1)
+        return strip[rr, xs[:, None]]
+
+    sky_v = np.median(rows(sky), axis=1)
+    sea_v = np.median(rows(sea), axis=1)
+    tol = np.maximum(p.far_sky_tol, 0.25 * np.abs(sky_v - sea_v))
+    ok = inside & (np.abs(rows(near) - sky_v[:, None]) <= tol[:, None]).all(axis=1)
+    n = len(x)
+    return ok[:n] | ok[n:]
+
+
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
@@ -2281,6 +2324,8 @@ class ClusterParams:
     far_coast_px: float = 20.0
     far_coast_gap_px: float = 4.0
     far_cols_px: float = 30.0
+    far_open_px: float = 0.0
+    far_sky_tol: float = 8.0
 
 
 class FeatureClusterer:
@@ -3139,7 +3184,11 @@ class FeatureClusterer:
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
             still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
             if p.far_top_px > 0:
-                still |= _far_still(snap.xy[st], row, max(float(zoom), 1e-3), p)
+                far = _far_still(snap.xy[st], row, max(float(zoom), 1e-3), p)
+                if p.far_open_px > 0 and image is not None and far.any():
+                    fi = np.flatnonzero(far)
+                    far[fi[~_far_open(image, snap.xy[st][fi, 0], horizon, max(float(zoom), 1e-3), p)]] = False
+                still |= far
         floor = self.min_speed_px_s
         if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
             # the lowered floor only near the horizon; elsewhere the floor without this step
