@@ -169,3 +169,25 @@ def test_far_ship_beside_open_sea_but_not_the_coast_foot():
     assert len(_reports_img(_params(far_top_px=3.0, far_open_px=30.0, **kw), SHIP, 0)[-1]) == 1  # open sea
     # off when far_top_px is 0, whatever far_open_px says
     assert all(len(b) == 0 for b in _reports_img(_params(far_open_px=30.0, **kw), SHIP, 0))
+
+
+def test_far_open_low_contrast_falls_back_to_the_feature_check():
+    from seawatch.track.feature_clusters import _far_open
+
+    # a thermal-like image: sky and sea alike (120 and 118), a warm band (150) along the horizon everywhere
+    rng = np.random.default_rng(5)
+    img = np.full((240, 320), 120.0)
+    img[100:] = 118.0
+    img[96:106] = 150.0
+    img += rng.normal(0, 1.0, img.shape)
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    hz = _Level(ROW)
+    x = np.array([150.0, 260.0, 10.0])
+    p = _params(far_top_px=3.0, far_open_px=30.0)
+    assert not _far_open(img, x, hz, 1.0, p).any()  # the band is not sky: never open
+    p = _params(far_top_px=3.0, far_open_px=30.0, far_open_contrast=20.0)
+    assert _far_open(img, x, hz, 1.0, p).tolist() == [True, True, True]  # contrast 2 < 20: open (x 10: right side)
+    # with the pan-like image (sky-sea contrast 75) the contrast floor changes nothing
+    assert _far_open(_image(200), x, hz, 1.0, p).tolist() == _far_open(_image(200), x, hz, 1.0,
+                                                                       _params(far_top_px=3.0, far_open_px=30.0)).tolist()
+    assert ClusterParams().far_open_contrast == 0.0 and ClusterParams().far_open_px == 0.0

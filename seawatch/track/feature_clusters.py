@@ -233,7 +233,11 @@ def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.n
     of the sky-sea contrast, if larger) of the sky 14-20 px (times the zoom) above the horizon in
     that column (7 columns averaged).  The foot of a coast lies under a dark strip that rises a few
     pixels above the horizon and runs on for hundreds of pixels; a ship far out has open sea on at
-    least one side.  A side outside the image is not open.  Returns (N,) bool."""
+    least one side.  A side outside the image is not open.  With ``far_open_contrast`` > 0 a side
+    where the sky and the sea (2-6 px, times the zoom, under the water margin) differ by less than
+    that many grey levels counts as open: the test cannot tell a coast there (a thermal image's sky
+    near the sea's temperature, with a warm band along the horizon), and the stable-feature coast
+    check of :func:`_far_still` alone decides.  Returns (N,) bool."""
     img = np.asarray(image)
     if img.ndim == 3 or img.dtype != np.uint8:
         img = to_grey_u8(img)
@@ -264,7 +268,10 @@ def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.n
     sky_v = np.median(rows(sky), axis=1)
     sea_v = np.median(rows(sea), axis=1)
     tol = np.maximum(p.far_sky_tol, 0.25 * np.abs(sky_v - sea_v))
-    ok = inside & (np.abs(rows(near) - sky_v[:, None]) <= tol[:, None]).all(axis=1)
+    ok = (np.abs(rows(near) - sky_v[:, None]) <= tol[:, None]).all(axis=1)
+    if p.far_open_contrast > 0:
+        ok |= np.abs(sky_v - sea_v) < p.far_open_contrast
+    ok &= inside
     n = len(x)
     return ok[:n] | ok[n:]
 
@@ -2326,6 +2333,7 @@ class ClusterParams:
     far_cols_px: float = 30.0
     far_open_px: float = 0.0
     far_sky_tol: float = 8.0
+    far_open_contrast: float = 0.0
 
 
 class FeatureClusterer:
