@@ -2199,7 +2199,21 @@ class ClusterParams:
     went at 28.0 s to a 35 x 6 px fragment, area x0.06, while the boat's own 113 x 30 px cluster came
     0.4-1 s later).  ``relink_height_zoom_min`` (0.3, on by default since session 22; 0: off): the same with the boxes' heights (a boat
     entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
-    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19)."""
+    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19).
+
+    Session 23 (helper H1, far ships on the horizon): ``far_top_px`` (0: off): the still-object rule
+    (``still_radius_px``) also takes stable features between this many pixels and ``water_margin_px``
+    (both times the zoom) under the horizon, where no stable feature lies between ``far_coast_gap_px``
+    (4) and ``far_coast_px`` (20) pixels (times the zoom) above the horizon within ``far_cols_px`` (30,
+    times the zoom) of their column (:func:`_far_still`): a ship far out (``pan``'s cargo ship, 2200 m:
+    waterline 8.6 px, features 5-7 px under the horizon at any zoom, about 1 px/s) is not left out as
+    the foot of a coast.  ``far_open_px`` (0: off; only with ``far_top_px``): and only where, this many
+    pixels (times the zoom) to the left or right, the sky reaches down to the horizon (rows 3-1 px above
+    it within ``far_sky_tol`` (8) grey levels, or a quarter of the sky-sea contrast, of the sky 14-20 px
+    above it; :func:`_far_open`): a low coast holds no stable feature above the horizon, but a dark strip
+    rising a few pixels above it.  ``far_open_contrast`` (0: off): a side where sky and sea differ by less
+    than this many grey levels counts as open (a thermal image, whose warm band along the horizon the
+    test cannot tell from a coast)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
