@@ -203,6 +203,79 @@ def frame_edges(
     return np.minimum(i, j), np.maximum(i, j), d
 
 
+def _far_still(xy: np.ndarray, row: np.ndarray, zoom: float, p) -> np.ndarray:
+    """Stable features inside the water margin that may still be joined as still objects
+    (session 23, ``ClusterParams.far_top_px``; 0: off): those lying between ``far_top_px`` and
+    ``water_margin_px`` (times the zoom) under the horizon (the waterline of a ship far out, about
+    5-8 px under it at any zoom) in columns that hold no coast: no stable feature lies between
+    ``far_coast_gap_px`` and ``far_coast_px`` (times the zoom) above the horizon within
+    ``far_cols_px`` (times the zoom) of their column (a distant coast shows features above the
+    horizon; a ship's own superstructure rises only a few pixels above it, which the gap leaves out).
+
+    ``xy`` (N, 2) the stable features, ``row`` (N,) the horizon's row at each one's column (NaN:
+    none).  Returns (N,) bool."""
+    ok = np.isfinite(row)
+    y = xy[:, 1]
+    with np.errstate(invalid="ignore"):
+        band = ok & (y > row + p.far_top_px * zoom) & (y <= row + p.water_margin_px * zoom)
+        up = ok & (y < row - p.far_coast_gap_px * zoom) & (y >= row - p.far_coast_px * zoom)
+    if band.any() and up.any():
+        dx = np.abs(xy[band, 0][:, None] - xy[up, 0][None, :]).min(axis=1)
+        b = np.flatnonzero(band)
+        band[b[dx <= p.far_cols_px * zoom]] = False
+    return band
+
+
+def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.ndarray:
+    """Whether open sea lies beside each column ``x`` (session 23, ``ClusterParams.far_open_px``):
+    at ``far_open_px`` (times the zoom) to the left or to the right of it, the rows from 3 to 1 px
+    (times the zoom) above the horizon are sky: each within ``far_sky_tol`` grey levels (or a quarter
+    of the sky-sea contrast, if larger) of the sky 14-20 px (times the zoom) above the horizon in
+    that column (7 columns averaged).  The foot of a coast lies under a dark strip that rises a few
+    pixels above the horizon and runs on for hundreds of pixels; a ship far out has open sea on at
+    least one side.  A side outside the image is not open.  With ``far_open_contrast`` > 0 a side
+    where the sky and the sea (2-6 px, times the zoom, under the water margin) differ by less than
+    that many grey levels counts as open: the test cannot tell a coast there (a thermal image's sky
+    near the sea's temperature, with a warm band along the horizon), and the stable-feature coast
+    check of :func:`_far_still` alone decides.  Returns (N,) bool."""
+    img = np.asarray(image)
+    if img.ndim == 3 or img.dtype != np.uint8:
+        img = to_grey_u8(img)
+    h, w = img.shape[:2]
+    x = np.asarray(x, np.float64)
+    d = p.far_open_px * zoom
+    xs = np.round(np.concatenate([x - d, x + d])).astype(np.int64)  # the two sides
+    inside = (xs >= 3) & (xs < w - 3)
+    xs = np.clip(xs, 3, max(w - 4, 3))
+    row = np.asarray(horizon.row_at(xs.astype(np.float64)), np.float64)
+    inside &= np.isfinite(row)
+    row = np.where(np.isfinite(row), row, 0.0)
+    near = np.arange(int(np.floor(-3 * zoom)), int(np.floor(-1 * zoom)) + 1)
+    sky = np.arange(int(np.floor(-20 * zoom)), int(np.floor(-14 * zoom)) + 1)
+    sea = np.arange(int(np.floor((p.water_margin_px + 2) * zoom)), int(np.floor((p.water_margin_px + 6) * zoom)) + 1)
+    r0 = np.floor(row).astype(np.int64)
+    inside &= (r0 + sky[0] >= 0) & (r0 + sea[-1] < h)
+    lo = int(max(np.min(r0 + sky[0]), 0))
+    hi = int(min(np.max(r0 + sea[-1]) + 1, h))
+    if hi <= lo or not inside.any():
+        return np.zeros(len(x), bool)
+    strip = cv2.blur(img[lo:hi].astype(np.float32), (7, 1))  # 7 columns averaged
+
+    def rows(off):
+        rr = np.clip(r0[:, None] + off[None, :] - lo, 0, hi - lo - 1)
+        return strip[rr, xs[:, None]]
+
+    sky_v = np.median(rows(sky), axis=1)
+    sea_v = np.median(rows(sea), axis=1)
+    tol = np.maximum(p.far_sky_tol, 0.25 * np.abs(sky_v - sea_v))
+    ok = (np.abs(rows(near) - sky_v[:, None]) <= tol[:, None]).all(axis=1)
+    if p.far_open_contrast > 0:
+        ok |= np.abs(sky_v - sea_v) < p.far_open_contrast
+    ok &= inside
+    n = len(x)
+    return ok[:n] | ok[n:]
+
+
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
@@ -2129,7 +2202,21 @@ class ClusterParams:
     went at 28.0 s to a 35 x 6 px fragment, area x0.06, while the boat's own 113 x 30 px cluster came
     0.4-1 s later).  ``relink_height_zoom_min`` (0.3, on by default since session 22; 0: off): the same with the boxes' heights (a boat
     entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
-    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19)."""
+    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19).
+
+    Session 23 (helper H1, far ships on the horizon): ``far_top_px`` (0: off): the still-object rule
+    (``still_radius_px``) also takes stable features between this many pixels and ``water_margin_px``
+    (both times the zoom) under the horizon, where no stable feature lies between ``far_coast_gap_px``
+    (4) and ``far_coast_px`` (20) pixels (times the zoom) above the horizon within ``far_cols_px`` (30,
+    times the zoom) of their column (:func:`_far_still`): a ship far out (``pan``'s cargo ship, 2200 m:
+    waterline 8.6 px, features 5-7 px under the horizon at any zoom, about 1 px/s) is not left out as
+    the foot of a coast.  ``far_open_px`` (0: off; only with ``far_top_px``): and only where, this many
+    pixels (times the zoom) to the left or right, the sky reaches down to the horizon (rows 3-1 px above
+    it within ``far_sky_tol`` (8) grey levels, or a quarter of the sky-sea contrast, of the sky 14-20 px
+    above it; :func:`_far_open`): a low coast holds no stable feature above the horizon, but a dark strip
+    rising a few pixels above it.  ``far_open_contrast`` (0: off): a side where sky and sea differ by less
+    than this many grey levels counts as open (a thermal image, whose warm band along the horizon the
+    test cannot tell from a coast)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2258,6 +2345,13 @@ class ClusterParams:
     split_origin_s: float = 0.0
     relink_area_zoom_min: float = 0.0
     relink_height_zoom_min: float = 0.3
+    far_top_px: float = 0.0
+    far_coast_px: float = 20.0
+    far_coast_gap_px: float = 4.0
+    far_cols_px: float = 30.0
+    far_open_px: float = 0.0
+    far_sky_tol: float = 8.0
+    far_open_contrast: float = 0.0
 
 
 class FeatureClusterer:
@@ -3118,6 +3212,12 @@ class FeatureClusterer:
         if horizon is not None and p.still_radius_px > 0 and len(st):
             row = np.asarray(horizon.row_at(snap.xy[st, 0]), np.float64)
             still = np.isfinite(row) & (snap.xy[st, 1] > row + p.water_margin_px * max(float(zoom), 1e-3))
+            if p.far_top_px > 0:
+                far = _far_still(snap.xy[st], row, max(float(zoom), 1e-3), p)
+                if p.far_open_px > 0 and image is not None and far.any():
+                    fi = np.flatnonzero(far)
+                    far[fi[~_far_open(image, snap.xy[st][fi, 0], horizon, max(float(zoom), 1e-3), p)]] = False
+                still |= far
         floor = self.min_speed_px_s
         if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
             # the lowered floor only near the horizon; elsewhere the floor without this step
