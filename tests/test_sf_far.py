@@ -1,5 +1,7 @@
 """Far ships on the horizon (issue #8, session 23 H1): the still-object rule inside the water margin
-where the columns hold no coast (``ClusterParams.far_top_px``; 0: off, the default)."""
+where the columns hold no coast (``ClusterParams.far_top_px``; 0: off; on by default since session 23
+with ``far_open_px`` and ``far_open_contrast``).  ``_params`` starts from the three off, so each test
+names the ones it turns on."""
 
 from __future__ import annotations
 
@@ -36,7 +38,9 @@ def _snap(k, ship, coast=(), seed=0):
 
 
 def _params(**kw):
-    return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0, **kw)
+    far = dict(far_top_px=0.0, far_open_px=0.0, far_open_contrast=0.0)
+    far.update(kw)
+    return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0, **far)
 
 
 def _reports(params, ship, coast=(), zoom=1.0, frames=8):
@@ -52,8 +56,9 @@ def _reports(params, ship, coast=(), zoom=1.0, frames=8):
 SHIP = [(150.0, 6.0), (160.0, 5.5), (158.0, 7.0)]  # a far ship's waterline, 5.5-7 px under the horizon
 
 
-def test_off_by_default_and_inside_the_margin_not_joined_when_off():
-    assert ClusterParams().far_top_px == 0.0
+def test_defaults_and_inside_the_margin_not_joined_when_off():
+    d = ClusterParams()
+    assert (d.far_top_px, d.far_open_px, d.far_open_contrast) == (3.0, 30.0, 20.0)
     r = _reports(_params(), SHIP)
     assert all(len(b) == 0 for b in r)  # inside the 8 px margin: not a still object
 
@@ -190,4 +195,3 @@ def test_far_open_low_contrast_falls_back_to_the_feature_check():
     # with the pan-like image (sky-sea contrast 75) the contrast floor changes nothing
     assert _far_open(_image(200), x, hz, 1.0, p).tolist() == _far_open(_image(200), x, hz, 1.0,
                                                                        _params(far_top_px=3.0, far_open_px=30.0)).tolist()
-    assert ClusterParams().far_open_contrast == 0.0 and ClusterParams().far_open_px == 0.0

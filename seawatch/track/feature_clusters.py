@@ -2204,7 +2204,8 @@ class ClusterParams:
     entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
     at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19).
 
-    Session 23 (helper H1, far ships on the horizon): ``far_top_px`` (0: off): the still-object rule
+    Session 23 (helper H1, far ships on the horizon; on by default since session 23 with
+    ``far_top_px`` 3, ``far_open_px`` 30, ``far_open_contrast`` 20): ``far_top_px`` (0: off): the still-object rule
     (``still_radius_px``) also takes stable features between this many pixels and ``water_margin_px``
     (both times the zoom) under the horizon, where no stable feature lies between ``far_coast_gap_px``
     (4) and ``far_coast_px`` (20) pixels (times the zoom) above the horizon within ``far_cols_px`` (30,
@@ -2345,13 +2346,13 @@ class ClusterParams:
     split_origin_s: float = 0.0
     relink_area_zoom_min: float = 0.0
     relink_height_zoom_min: float = 0.3
-    far_top_px: float = 0.0
+    far_top_px: float = 3.0
     far_coast_px: float = 20.0
     far_coast_gap_px: float = 4.0
     far_cols_px: float = 30.0
-    far_open_px: float = 0.0
+    far_open_px: float = 30.0
     far_sky_tol: float = 8.0
-    far_open_contrast: float = 0.0
+    far_open_contrast: float = 20.0
 
 
 class FeatureClusterer:
