@@ -1971,6 +1971,12 @@ class ClusterParams:
     none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
     Session 22: ``box_disp_two`` (False: off): ``box_disp_s`` also for a box of two members, the
     one that moved farther being the boat's (see :meth:`FeatureClusterer._disp_members`).
+    Session 23 (H2): ``box_disp_two_wake_px`` (0: off): with ``box_disp_two``, the member that
+    stayed behind leaves a two-member box only when it lies where a wake's foam lies: behind the
+    other member (against that one's displacement) and at most this many pixels (times the zoom)
+    above it (foam floats at the waterline, under or level with the hull's features).  A cluster
+    holding one feature on each of two boats no longer has its box jump to the boat that moved
+    farther (sim `pan` seed 1 at 12.1 s: 42 px above), nor a far ship's box shrink to one feature.
     Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
     behind a boat whose box members move across the image at least this fast (relative to the
     scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
@@ -2205,6 +2211,7 @@ class ClusterParams:
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
     box_disp_two: bool = False
+    box_disp_two_wake_px: float = 0.0
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
     grow_sign_trail_px_s: float = 0.0
@@ -2442,7 +2449,10 @@ class FeatureClusterer:
         more foam features than boat features).  With ``box_disp_two`` (session 22) a cluster whose
         box has only two such members is judged too: the reference is the longer displacement of the
         two, and the member that stayed behind leaves the box though one member is left (a small
-        boat's one hull feature and one foam feature of its wake: their median is halfway)."""
+        boat's one hull feature and one foam feature of its wake: their median is halfway).  With
+        ``box_disp_two_wake_px`` > 0 (session 23) that member leaves only when it lies behind the
+        other (against the other's displacement) and at most that many pixels (times the zoom)
+        above it: a wake's foam, not a feature of another boat or of a long hull's other end."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -2499,6 +2509,13 @@ class FeatureClusterer:
                 continue
             along = dm[mem] @ (med / L)
             out = along < p.box_disp_frac * L
+            if two and p.box_disp_two_wake_px > 0 and out.any() and not out.all():
+                # session 23: only foam of the boat's wake leaves: behind the moving member, not above it
+                xym = np.asarray(snap.xy, np.float64)[m]
+                a, b = mem[~out][0], mem[out][0]
+                rel = xym[b] - xym[a]
+                if not (rel @ med < 0 and rel[1] >= -p.box_disp_two_wake_px * self._zoom):
+                    continue
             if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
