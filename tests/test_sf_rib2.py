@@ -77,3 +77,33 @@ def test_the_tolerance_follows_the_zoom():
             assert tr.boxes[0].tolist() == pytest.approx(BOAT_ONLY)
         else:
             assert tr.boxes[0][0] == pytest.approx(78)
+
+
+def run_anchor(last_box):
+    """The pair of ``run_pair`` with a still feature 40 px above the moving one (not a wake), with
+    ``box_disp_two_anchor`` and the box members' anchor (``box_dv_px_s`` on); before the last frame
+    the cluster's box of the frame before is set to ``last_box`` (None: left as it was)."""
+    params = ClusterParams(box_disp_two_wake_px=2.0, box_disp_two_anchor=True,
+                           **{**BASE, "box_dv_px_s": 1.5})
+    cl = FeatureClusterer(params)
+    for fi in range(20):
+        if fi == 19 and last_box is not None:
+            cl._cluster_boxes = {c: np.asarray(last_box, float) for c in cl._cluster_boxes}
+        xy = np.array([[100 + 0.5 * fi, 60.0], [80.0, 20.0]])
+        _, tr = cl.update(snap(xy, [[5.0, 0.0]] * 2, 0.1 * fi, fi, ids=[10, 11], shape=(400, 400)))
+        assert len(tr) == 1
+    return tr.boxes[0]
+
+
+def test_anchor_keeps_the_member_the_box_was_on():
+    assert ClusterParams().box_disp_two_anchor is False
+    # the box was around both: both stay (as with box_disp_two_wake_px alone)
+    both = run_anchor(None)
+    assert both[0] == pytest.approx(78) and both[1] == pytest.approx(18)
+    assert both[1] + both[3] == pytest.approx(62)
+    # the box was on the still feature (another boat): the one that moved leaves
+    still = run_anchor([70.0, 10.0, 20.0, 20.0])
+    assert still.tolist() == pytest.approx([78, 18, 4, 4])
+    # the box was on the moving feature: the still one leaves (session 22's rule)
+    moving = run_anchor([100.0, 50.0, 20.0, 20.0])
+    assert moving.tolist() == pytest.approx(BOAT_ONLY)

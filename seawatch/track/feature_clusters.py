@@ -1977,6 +1977,9 @@ class ClusterParams:
     above it (foam floats at the waterline, under or level with the hull's features).  A cluster
     holding one feature on each of two boats no longer has its box jump to the boat that moved
     farther (sim `pan` seed 1 at 12.1 s: 42 px above), nor a far ship's box shrink to one feature.
+    ``box_disp_two_anchor`` (False): with it, such a pair that is not a wake keeps the member inside
+    the cluster's box of the frame before when only one lies there (sim `pan` seed 6 at 14.1 s: the
+    box stays on the patrol boat, not on the tanker 38 px above); otherwise both stay.
     Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
     behind a boat whose box members move across the image at least this fast (relative to the
     scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
@@ -2212,6 +2215,7 @@ class ClusterParams:
     box_disp_q: float = 0.0
     box_disp_two: bool = False
     box_disp_two_wake_px: float = 0.0
+    box_disp_two_anchor: bool = False
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
     grow_sign_trail_px_s: float = 0.0
@@ -2330,6 +2334,7 @@ class FeatureClusterer:
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
+        self._disp_anchor = None  # box_disp_two_anchor: the members inside their cluster's last box
         self._horizon = None
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
@@ -2452,7 +2457,10 @@ class FeatureClusterer:
         boat's one hull feature and one foam feature of its wake: their median is halfway).  With
         ``box_disp_two_wake_px`` > 0 (session 23) that member leaves only when it lies behind the
         other (against the other's displacement) and at most that many pixels (times the zoom)
-        above it: a wake's foam, not a feature of another boat or of a long hull's other end."""
+        above it: a wake's foam, not a feature of another boat or of a long hull's other end.  With
+        ``box_disp_two_anchor`` a pair that is not a wake keeps the member lying inside the
+        cluster's box of the frame before (``box_keep_last``'s anchor) when only one of them does
+        (the one that moved leaves when the box was on the other); otherwise both stay."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -2515,7 +2523,13 @@ class FeatureClusterer:
                 a, b = mem[~out][0], mem[out][0]
                 rel = xym[b] - xym[a]
                 if not (rel @ med < 0 and rel[1] >= -p.box_disp_two_wake_px * self._zoom):
-                    continue
+                    anc = self._disp_anchor if p.box_disp_two_anchor else None
+                    if anc is None or bool(anc[a]) == bool(anc[b]):
+                        continue  # not a wake: both stay
+                    if anc[b]:  # the box was on the member that stayed behind: the one that moved leaves
+                        keep[a] = False
+                        continue
+                    # the box was on the one that moved: the other leaves, as without this rule
             if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
@@ -3206,6 +3220,7 @@ class FeatureClusterer:
             inb = None
         if p.box_disp_s > 0:
             # the box is drawn around the members that moved with the cluster over box_disp_s
+            self._disp_anchor = anchor if p.box_dv_px_s > 0 else None
             keep = self._disp_members(snap, m, k, n, inb)
             inb = keep if inb is None else inb & keep
         if inb is not None:
