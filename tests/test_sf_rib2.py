@@ -107,3 +107,24 @@ def test_anchor_keeps_the_member_the_box_was_on():
     # the box was on the moving feature: the still one leaves (session 22's rule)
     moving = run_anchor([100.0, 50.0, 20.0, 20.0])
     assert moving.tolist() == pytest.approx(BOAT_ONLY)
+
+
+def test_far_h_leaves_a_member_just_outside_the_box():
+    assert ClusterParams().box_disp_two_far_h == 0.0
+    params = ClusterParams(box_disp_two_wake_px=2.0, box_disp_two_anchor=True, box_disp_two_far_h=1.0,
+                           **{**BASE, "box_dv_px_s": 1.5})
+
+    def last(box):
+        cl = FeatureClusterer(params)
+        for fi in range(20):
+            if fi == 19:
+                cl._cluster_boxes = {c: np.asarray(box, float) for c in cl._cluster_boxes}
+            xy = np.array([[100 + 0.5 * fi, 60.0], [80.0, 20.0]])
+            _, tr = cl.update(snap(xy, [[5.0, 0.0]] * 2, 0.1 * fi, fi, ids=[10, 11], shape=(400, 400)))
+        return tr.boxes[0]
+
+    # the moving feature (109.5, 60) lies 40 px below a 20 px box on the still one: far, it leaves
+    assert last([70.0, 10.0, 20.0, 20.0]).tolist() == pytest.approx([78, 18, 4, 4])
+    # a 50 px tall box: 10 px outside is less than its height: both stay
+    both = last([70.0, 0.0, 20.0, 50.0])
+    assert both[0] == pytest.approx(78) and both[1] + both[3] == pytest.approx(62)

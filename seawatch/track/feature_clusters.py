@@ -1980,6 +1980,9 @@ class ClusterParams:
     ``box_disp_two_anchor`` (False): with it, such a pair that is not a wake keeps the member inside
     the cluster's box of the frame before when only one lies there (sim `pan` seed 6 at 14.1 s: the
     box stays on the patrol boat, not on the tanker 38 px above); otherwise both stay.
+    ``box_disp_two_far_h`` (0: off): with ``box_disp_two_anchor``, only when the member outside that
+    box lies more than this many times the box's height outside it (sim `ir` seed 6 at 3.0 s: two
+    members of the fishing boat, one 4 px outside its 20 px box, both stay).
     Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
     behind a boat whose box members move across the image at least this fast (relative to the
     scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
@@ -2216,6 +2219,7 @@ class ClusterParams:
     box_disp_two: bool = False
     box_disp_two_wake_px: float = 0.0
     box_disp_two_anchor: bool = False
+    box_disp_two_far_h: float = 0.0
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
     grow_sign_trail_px_s: float = 0.0
@@ -2335,6 +2339,7 @@ class FeatureClusterer:
         self._prev_camera = None
         self._zoom = 1.0
         self._disp_anchor = None  # box_disp_two_anchor: the members inside their cluster's last box
+        self._anchor_gap_h = None  # box_disp_two_far_h: each member's distance outside that box / its height
         self._horizon = None
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
@@ -2460,7 +2465,9 @@ class FeatureClusterer:
         above it: a wake's foam, not a feature of another boat or of a long hull's other end.  With
         ``box_disp_two_anchor`` a pair that is not a wake keeps the member lying inside the
         cluster's box of the frame before (``box_keep_last``'s anchor) when only one of them does
-        (the one that moved leaves when the box was on the other); otherwise both stay."""
+        (the one that moved leaves when the box was on the other); otherwise both stay.  With
+        ``box_disp_two_far_h`` > 0 only when the member outside lies more than that many times the
+        box's height outside it (another object; a member just outside a boat's box stays)."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -2526,6 +2533,11 @@ class FeatureClusterer:
                     anc = self._disp_anchor if p.box_disp_two_anchor else None
                     if anc is None or bool(anc[a]) == bool(anc[b]):
                         continue  # not a wake: both stay
+                    if p.box_disp_two_far_h > 0:
+                        # only a member well outside the box (another object) leaves
+                        gh = self._anchor_gap_h
+                        if gh is None or len(gh) != len(anc) or not gh[b if anc[a] else a] > p.box_disp_two_far_h:
+                            continue
                     if anc[b]:  # the box was on the member that stayed behind: the one that moved leaves
                         keep[a] = False
                         continue
@@ -2558,6 +2570,10 @@ class FeatureClusterer:
         with np.errstate(invalid="ignore"):
             inside = ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
                       & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
+            if self.params.box_disp_two_far_h > 0:  # each member's distance outside that box, in its heights
+                gx = np.maximum(np.maximum(bb[:, 0] - xy[:, 0], xy[:, 0] - bb[:, 0] - bb[:, 2]), 0.0)
+                gy = np.maximum(np.maximum(bb[:, 1] - xy[:, 1], xy[:, 1] - bb[:, 1] - bb[:, 3]), 0.0)
+                self._anchor_gap_h = np.maximum(gx, gy) / np.maximum(bb[:, 3], 1.0)
         return inside if inside.any() else None
 
     def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
