@@ -2047,6 +2047,18 @@ class ClusterParams:
     none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
     Session 22: ``box_disp_two`` (False: off): ``box_disp_s`` also for a box of two members, the
     one that moved farther being the boat's (see :meth:`FeatureClusterer._disp_members`).
+    Session 23 (H2): ``box_disp_two_wake_px`` (0: off): with ``box_disp_two``, the member that
+    stayed behind leaves a two-member box only when it lies where a wake's foam lies: behind the
+    other member (against that one's displacement) and at most this many pixels (times the zoom)
+    above it (foam floats at the waterline, under or level with the hull's features).  A cluster
+    holding one feature on each of two boats no longer has its box jump to the boat that moved
+    farther (sim `pan` seed 1 at 12.1 s: 42 px above), nor a far ship's box shrink to one feature.
+    ``box_disp_two_anchor`` (False): with it, such a pair that is not a wake keeps the member inside
+    the cluster's box of the frame before when only one lies there (sim `pan` seed 6 at 14.1 s: the
+    box stays on the patrol boat, not on the tanker 38 px above); otherwise both stay.
+    ``box_disp_two_far_h`` (0: off): with ``box_disp_two_anchor``, only when the member outside that
+    box lies more than this many times the box's height outside it (sim `ir` seed 6 at 3.0 s: two
+    members of the fishing boat, one 4 px outside its 20 px box, both stay).
     Session 22: ``grow_sign_trail_px_s`` (0: off, the rule on every side): ``grow_sign`` only
     behind a boat whose box members move across the image at least this fast (relative to the
     scene), and only the columns beyond the core on that side (the wake's): a large ship's parts of
@@ -2297,6 +2309,9 @@ class ClusterParams:
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
     box_disp_two: bool = False
+    box_disp_two_wake_px: float = 0.0
+    box_disp_two_anchor: bool = False
+    box_disp_two_far_h: float = 0.0
     grow_sign: float = 0.0
     grow_sign_max_px: float = 0.0
     grow_sign_trail_px_s: float = 0.0
@@ -2423,6 +2438,8 @@ class FeatureClusterer:
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
+        self._disp_anchor = None  # box_disp_two_anchor: the members inside their cluster's last box
+        self._anchor_gap_h = None  # box_disp_two_far_h: each member's distance outside that box / its height
         self._horizon = None
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
@@ -2542,7 +2559,15 @@ class FeatureClusterer:
         more foam features than boat features).  With ``box_disp_two`` (session 22) a cluster whose
         box has only two such members is judged too: the reference is the longer displacement of the
         two, and the member that stayed behind leaves the box though one member is left (a small
-        boat's one hull feature and one foam feature of its wake: their median is halfway)."""
+        boat's one hull feature and one foam feature of its wake: their median is halfway).  With
+        ``box_disp_two_wake_px`` > 0 (session 23) that member leaves only when it lies behind the
+        other (against the other's displacement) and at most that many pixels (times the zoom)
+        above it: a wake's foam, not a feature of another boat or of a long hull's other end.  With
+        ``box_disp_two_anchor`` a pair that is not a wake keeps the member lying inside the
+        cluster's box of the frame before (``box_keep_last``'s anchor) when only one of them does
+        (the one that moved leaves when the box was on the other); otherwise both stay.  With
+        ``box_disp_two_far_h`` > 0 only when the member outside lies more than that many times the
+        box's height outside it (another object; a member just outside a boat's box stays)."""
         p = self.params
         t, fi = float(snap.t_s), int(snap.frame_index)
         hmg = np.asarray(getattr(snap, "homography", np.full((3, 3), np.nan)), np.float64)
@@ -2599,6 +2624,24 @@ class FeatureClusterer:
                 continue
             along = dm[mem] @ (med / L)
             out = along < p.box_disp_frac * L
+            if two and p.box_disp_two_wake_px > 0 and out.any() and not out.all():
+                # session 23: only foam of the boat's wake leaves: behind the moving member, not above it
+                xym = np.asarray(snap.xy, np.float64)[m]
+                a, b = mem[~out][0], mem[out][0]
+                rel = xym[b] - xym[a]
+                if not (rel @ med < 0 and rel[1] >= -p.box_disp_two_wake_px * self._zoom):
+                    anc = self._disp_anchor if p.box_disp_two_anchor else None
+                    if anc is None or bool(anc[a]) == bool(anc[b]):
+                        continue  # not a wake: both stay
+                    if p.box_disp_two_far_h > 0:
+                        # only a member well outside the box (another object) leaves
+                        gh = self._anchor_gap_h
+                        if gh is None or len(gh) != len(anc) or not gh[b if anc[a] else a] > p.box_disp_two_far_h:
+                            continue
+                    if anc[b]:  # the box was on the member that stayed behind: the one that moved leaves
+                        keep[a] = False
+                        continue
+                    # the box was on the one that moved: the other leaves, as without this rule
             if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
@@ -2627,6 +2670,10 @@ class FeatureClusterer:
         with np.errstate(invalid="ignore"):
             inside = ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
                       & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
+            if self.params.box_disp_two_far_h > 0:  # each member's distance outside that box, in its heights
+                gx = np.maximum(np.maximum(bb[:, 0] - xy[:, 0], xy[:, 0] - bb[:, 0] - bb[:, 2]), 0.0)
+                gy = np.maximum(np.maximum(bb[:, 1] - xy[:, 1], xy[:, 1] - bb[:, 1] - bb[:, 3]), 0.0)
+                self._anchor_gap_h = np.maximum(gx, gy) / np.maximum(bb[:, 3], 1.0)
         return inside if inside.any() else None
 
     def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
@@ -3297,6 +3344,7 @@ class FeatureClusterer:
             inb = None
         if p.box_disp_s > 0:
             # the box is drawn around the members that moved with the cluster over box_disp_s
+            self._disp_anchor = anchor if p.box_dv_px_s > 0 else None
             keep = self._disp_members(snap, m, k, n, inb)
             inb = keep if inb is None else inb & keep
         if inb is not None:
