@@ -2126,7 +2126,17 @@ class ClusterParams:
     went at 28.0 s to a 35 x 6 px fragment, area x0.06, while the boat's own 113 x 30 px cluster came
     0.4-1 s later).  ``relink_height_zoom_min`` (0.3, on by default since session 22; 0: off): the same with the boxes' heights (a boat
     entering the view at the image's edge is narrow, not low: on ``pan`` 7 the motorboat's right relink
-    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19)."""
+    at 27.5 s was area x0.21 but height x0.75; the fragment above height x0.19).
+
+    Session 23 (helper H3, the switches left): ``relink_dy_px_per_s`` (0: off): the row check of
+    ``relink_dy_h`` allows a row gap up to ``relink_dy_h`` times the smaller box's height plus this many
+    pixels per second lost (times the zoom now), when that is more than the check's own limit (which
+    stays: ``relink_dy_h`` times the taller box's height): a boat's range, and so its waterline's row, drifts while it
+    is out of the view for long (on ``pan`` the rib, left behind by the pan at the image's left edge
+    at 10 s, came back at 35 s 40-50 px higher than its carried box: refused, a new identity on all six
+    tuning seeds); with ``relink_dy_side`` (False: every lost identity) only for identities lost with
+    their last box at the image's left or right edge (a boat the pan left behind; a boat lost inside
+    the image keeps the strict check)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2254,6 +2264,8 @@ class ClusterParams:
     split_origin_s: float = 0.0
     relink_area_zoom_min: float = 0.0
     relink_height_zoom_min: float = 0.3
+    relink_dy_px_per_s: float = 0.0
+    relink_dy_side: bool = False
 
 
 class FeatureClusterer:
@@ -2319,6 +2331,7 @@ class FeatureClusterer:
         self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
+        self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
         self._prev_camera = None
@@ -2769,7 +2782,13 @@ class FeatureClusterer:
                                           or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
                     # session 22: a boat keeps its waterline's row (its range) through a loss
                     dy = abs((boxes[i][1] + boxes[i][3]) - (lb[1] + lb[3]))
-                    if dy > p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0):
+                    dy_max = p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0)
+                    if p.relink_dy_px_per_s > 0 and (not p.relink_dy_side or k in self._lost_side):
+                        # session 23: the row drifts while the boat is out of the view for long (the
+                        # drift on top of the smaller box's slack: a tall carried box has its own)
+                        dy_max = max(dy_max, p.relink_dy_h * max(min(float(boxes[i][3]), float(lb[3])), 1.0)
+                                     + p.relink_dy_px_per_s * (t - tl) * self._zoom)
+                    if dy > dy_max:
                         continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
@@ -2883,6 +2902,12 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_dy_px_per_s > 0 and p.relink_dy_side:  # session 23: lost at the left or right edge
+                    w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
+                    if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
+                        self._lost_side.add(k)
+                    else:
+                        self._lost_side.discard(k)
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
                         or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
@@ -2921,6 +2946,8 @@ class FeatureClusterer:
             self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
+        if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_side = {k for k in self._lost_side if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
             self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
