@@ -4,6 +4,7 @@ the row check of ``relink_dy_h`` grow with the time lost, on top of the smaller 
 (the rib on ``pan``, left behind by the pan at 10 s and back 40-50 px higher at 35 s)."""
 
 import numpy as np
+import pytest
 
 from _feature_snap import snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
@@ -98,3 +99,44 @@ def test_a_tall_carried_box_keeps_its_own_limit_only():
     assert not took  # 1.5 x 10 + 0.6 x 19.8 = 27 < 60: the old limit stays the limit
     took, _ = _run(tall, lower, 20.0, relink_dy_px_per_s=3.0)
     assert took  # 1.5 x 10 + 3 x 19.8 = 74 > 70
+
+
+# hand_over_relinked: an older identity lost in the frame where a new cluster on its boat took a
+# younger identity by a relink
+A = [[100, 60], [130, 70]]  # the boat's cluster (the older identity)
+F = [[100, 90], [104, 94]]  # a fragment moving otherwise (a younger identity), lost before A
+N = [[102, 62], [128, 72]]  # a new cluster on the boat, born in the frame where A's cluster dies
+OFF2 = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
+            relink_dy_h=0.0, relink_view_px=0.0)
+
+
+def _hand_over_run(**kw):
+    c = FeatureClusterer(ClusterParams(**{**OFF2, **kw}))
+    va, vf = [[20.0, 0.0]] * 2, [[-20.0, 0.0]] * 2
+    _, t0 = c.update(snap(A, va, 0.0, 0, ids=[1, 2]))
+    a_id = int(t0.ids[0])
+    _, t1 = c.update(snap(A + F, va + vf, 0.1, 1, ids=[1, 2, 3, 4]))
+    assert len(t1) == 2
+    f_id = max(int(x) for x in t1.ids)
+    assert f_id > a_id
+    for k in (2, 3, 4):  # the fragment is lost
+        _, tk = c.update(snap(A, va, 0.1 * k, k, ids=[1, 2]))
+        assert [int(x) for x in tk.ids] == [a_id]
+    assert f_id in c._lost
+    _, t5 = c.update(snap(N, va, 0.5, 5, ids=[5, 6]))  # A's cluster gone, N born on the boat
+    assert len(t5) == 1
+    return int(t5.ids[0]), a_id, f_id, c
+
+
+def test_hand_over_relinked_off_by_default_and_old_behaviour():
+    assert ClusterParams().hand_over_relinked is False
+    got, a_id, f_id, c = _hand_over_run()
+    assert got == f_id  # relinked to the fragment's younger identity; the boat's own is lost
+    assert a_id in c._lost and f_id not in c._lost
+
+
+def test_hand_over_relinked_keeps_the_older_identity():
+    got, a_id, f_id, c = _hand_over_run(hand_over_relinked=True)
+    assert got == a_id  # the older identity stays on the boat
+    assert f_id in c._lost and a_id not in c._lost  # the younger one is lost again, as before the relink
+    assert c._lost[f_id][0] == pytest.approx(0.2)  # with its time of loss kept

@@ -2136,7 +2136,12 @@ class ClusterParams:
     at 10 s, came back at 35 s 40-50 px higher than its carried box: refused, a new identity on all six
     tuning seeds); with ``relink_dy_side`` (False: every lost identity) only for identities lost with
     their last box at the image's left or right edge (a boat the pan left behind; a boat lost inside
-    the image keeps the strict check)."""
+    the image keeps the strict check).  ``hand_over_relinked`` (False: off): the hand-over
+    (:meth:`FeatureClusterer._hand_over`) may also give a lost identity to a cluster that took a
+    younger lost identity by a relink in the same frame (the older identity stays, the paper's rule);
+    the younger one is lost again as it was before that relink (on ``pan`` 6 at 29.0 s the motorboat's
+    cluster died while a new cluster on it took a fragment's identity lost 0.6 s before; the
+    motorboat's identity, lost after the relink pass, could not go to it: two switches)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2266,6 +2271,7 @@ class ClusterParams:
     relink_height_zoom_min: float = 0.3
     relink_dy_px_per_s: float = 0.0
     relink_dy_side: bool = False
+    hand_over_relinked: bool = False
 
 
 class FeatureClusterer:
@@ -2331,6 +2337,7 @@ class FeatureClusterer:
         self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
+        self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
@@ -2812,9 +2819,13 @@ class FeatureClusterer:
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
         done = set()
+        self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
         for d, _, i, k in sorted(pairs):
             if i in done or k in present:
                 continue
+            if p.hand_over_relinked:
+                self._relinked_now[k] = (i, self._lost[k], self._lost_dir.get(k), self._lost_alt.get(k),
+                                         self._lost_alt_dir.get(k), self._relinked.get(k), self._relinked_alt.get(k))
             self._alias[int(cids[i])] = k
             rep[i] = k
             present.add(k)
@@ -2929,6 +2940,17 @@ class FeatureClusterer:
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is not None and r in self._relinked_now:
+                        # hand_over_relinked: the younger identity relinked this frame is lost again as before
+                        e = self._relinked_now.pop(r)
+                        self._lost[r] = e[1]
+                        for dct, v in ((self._lost_dir, e[2]), (self._lost_alt, e[3]), (self._lost_alt_dir, e[4]),
+                                       (self._relinked, e[5]), (self._relinked_alt, e[6])):
+                            if v is None:
+                                dct.pop(r, None)
+                            else:
+                                dct[r] = v
+                        continue
                     if r is not None:
                         renamed.add(r)
                         self._lost.pop(r, None)
@@ -3036,8 +3058,8 @@ class FeatureClusterer:
         best, best_o = -1, self.params.relink_overlap
         for i, r in enumerate(rep):
             r = int(r)
-            if r <= k or r != int(cids[i]):
-                continue  # older, or already carrying another identity
+            if r <= k or (r != int(cids[i]) and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
+                continue  # older, or already carrying another identity (unless relinked this frame: hand_over_relinked)
             b = boxes[i]
             iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
             ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
