@@ -140,3 +140,53 @@ def test_hand_over_relinked_keeps_the_older_identity():
     assert got == a_id  # the older identity stays on the boat
     assert f_id in c._lost and a_id not in c._lost  # the younger one is lost again, as before the relink
     assert c._lost[f_id][0] == pytest.approx(0.2)  # with its time of loss kept
+
+
+# split_follow_box: a cluster's box jumps onto another boat while a new cluster is born on its box
+P1 = [[100, 60], [130, 70]]  # boat 1 (the identity's boat)
+P2 = [[20, 120], [44, 130]]  # boat 2, far from boat 1 (more than the graph's 50 px)
+OFF3 = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
+            relink_view_px=0.0)
+
+
+def _jump_run(with_y, **kw):
+    """Cluster X (features 1, 2) on boat 1 from 0 s; with ``with_y`` a younger cluster Y (features 5,
+    6) on boat 2 from 0.1 s.  At 0.3 s features 1, 2 lie on boat 2 (X's box jumps; Y's features are
+    gone) and new features 3, 4 on boat 1.  Returns the identities reported on boat 1 and boat 2
+    at 0.3 s, and X's and Y's identities."""
+    c = FeatureClusterer(ClusterParams(**{**OFF3, **kw}))
+    v = [[10.0, 0.0]] * 2
+    _, t0 = c.update(snap(P1, v, 0.0, 0, ids=[1, 2]))
+    x_id = int(t0.ids[0])
+    pts, ids = (P1 + P2, [1, 2, 5, 6]) if with_y else (P1, [1, 2])
+    _, t1 = c.update(snap(pts, v * (len(ids) // 2), 0.1, 1, ids=ids))
+    y_id = max(int(i) for i in t1.ids) if with_y else None
+    c.update(snap(pts, v * (len(ids) // 2), 0.2, 2, ids=ids))
+    _, t3 = c.update(snap(P2 + P1, v * 2, 0.3, 3, ids=[1, 2, 3, 4]))
+    assert len(t3) == 2
+    on = {}
+    for i, b in zip(t3.ids, t3.boxes):
+        on[1 if b[0] > 70 else 2] = int(i)
+    return on, x_id, y_id, c
+
+
+def test_split_follow_box_off_by_default_and_old_behaviour():
+    assert ClusterParams().split_follow_box == 0.0
+    on, x_id, _, _ = _jump_run(False)
+    assert on[2] == x_id and on[1] != x_id  # the identity goes with the features (the paper's rule)
+
+
+def test_split_follow_box_keeps_the_identity_on_its_box():
+    on, x_id, _, c = _jump_run(False, split_follow_box=0.5)
+    assert on[1] == x_id  # the new cluster on boat 1 takes it
+    assert on[2] != x_id and on[2] > x_id and on[2] in c._swapped  # the jumped cluster: a new identity
+    on, x_id, _, _ = _jump_run(False, split_follow_box=1.01)
+    assert on[2] == x_id  # no new cluster overlapping enough: unchanged
+
+
+def test_split_follow_box_jumped_cluster_takes_the_lost_identity_on_its_box():
+    on, x_id, y_id, c = _jump_run(True)
+    assert on[2] == x_id and y_id in c._lost  # off: boat 2 gets X's identity, Y's is lost
+    on, x_id, y_id, c = _jump_run(True, split_follow_box=0.5)
+    assert on == {1: x_id, 2: y_id}  # each boat keeps its identity (Y handed over to the jumped cluster)
+    assert y_id not in c._lost

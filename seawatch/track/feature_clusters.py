@@ -2141,7 +2141,15 @@ class ClusterParams:
     younger lost identity by a relink in the same frame (the older identity stays, the paper's rule);
     the younger one is lost again as it was before that relink (on ``pan`` 6 at 29.0 s the motorboat's
     cluster died while a new cluster on it took a fragment's identity lost 0.6 s before; the
-    motorboat's identity, lost after the relink pass, could not go to it: two switches)."""
+    motorboat's identity, lost after the relink pass, could not go to it: two switches).
+    ``split_follow_box`` (0: off): when a reported cluster's box jumps away from its own box of the
+    frame before (carried by the camera; intersection over union under 0.1) while a cluster born in
+    this frame overlaps that box by at least this IoU, the new cluster takes the identity (the boat it
+    was on) and the jumped cluster gets a new one, which the hand-over may replace by an older
+    identity lost on its box (also later: that one's new cluster may die soon after) (the paper's split gives the identity to the part holding most of its
+    features: on ``ir`` 5 and 7 at 3.2-3.5 s the ferry's cluster, linked to boat 6's features, split
+    and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
+    rib's identity went to the fishing boat's part)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2272,6 +2280,7 @@ class ClusterParams:
     relink_dy_px_per_s: float = 0.0
     relink_dy_side: bool = False
     hand_over_relinked: bool = False
+    split_follow_box: float = 0.0
 
 
 class FeatureClusterer:
@@ -2338,6 +2347,7 @@ class FeatureClusterer:
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
+        self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
@@ -2756,6 +2766,30 @@ class FeatureClusterer:
             self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
+        if p.split_follow_box > 0 and new and self._prev_boxes:
+            # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
+            for i in range(len(cids)):
+                r = int(rep[i])
+                if int(cids[i]) not in self._known or r not in self._prev_boxes:
+                    continue
+                lb = carry(self._prev_boxes[r])
+                if _iou(boxes[i], lb) >= 0.1:
+                    continue
+                best, best_o = -1, p.split_follow_box
+                for j in new:
+                    o = _iou(boxes[j], lb)
+                    if o >= best_o:
+                        best, best_o = j, o
+                if best < 0:
+                    continue
+                nid = int(self.graph.next_id)
+                self.graph.next_id += 1
+                self._alias[int(cids[best])] = r
+                rep[best] = r
+                self._alias[int(cids[i])] = nid
+                rep[i] = nid
+                new.remove(best)
+                self._swapped.add(nid)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -2968,6 +3002,8 @@ class FeatureClusterer:
             self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
+        if len(self._swapped) > 2 * len(now) + 16:  # bounded memory
+            self._swapped = {k for k in self._swapped if k in now}
         if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_side = {k for k in self._lost_side if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
@@ -3058,7 +3094,8 @@ class FeatureClusterer:
         best, best_o = -1, self.params.relink_overlap
         for i, r in enumerate(rep):
             r = int(r)
-            if r <= k or (r != int(cids[i]) and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
+            if r <= k or (r != int(cids[i]) and r not in self._swapped
+                          and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
                 continue  # older, or already carrying another identity (unless relinked this frame: hand_over_relinked)
             b = boxes[i]
             iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
