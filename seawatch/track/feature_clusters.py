@@ -2229,7 +2229,30 @@ class ClusterParams:
     above it; :func:`_far_open`): a low coast holds no stable feature above the horizon, but a dark strip
     rising a few pixels above it.  ``far_open_contrast`` (0: off): a side where sky and sea differ by less
     than this many grey levels counts as open (a thermal image, whose warm band along the horizon the
-    test cannot tell from a coast)."""
+    test cannot tell from a coast).
+
+    Session 23 (helper H3, the switches left): ``relink_dy_px_per_s`` (0: off): the row check of
+    ``relink_dy_h`` allows a row gap up to ``relink_dy_h`` times the smaller box's height plus this many
+    pixels per second lost (times the zoom now), when that is more than the check's own limit (which
+    stays: ``relink_dy_h`` times the taller box's height): a boat's range, and so its waterline's row, drifts while it
+    is out of the view for long (on ``pan`` the rib, left behind by the pan at the image's left edge
+    at 10 s, came back at 35 s 40-50 px higher than its carried box: refused, a new identity on all six
+    tuning seeds); with ``relink_dy_side`` (False: every lost identity) only for identities lost with
+    their last box at the image's left or right edge (a boat the pan left behind; a boat lost inside
+    the image keeps the strict check).  ``hand_over_relinked`` (False: off): the hand-over
+    (:meth:`FeatureClusterer._hand_over`) may also give a lost identity to a cluster that took a
+    younger lost identity by a relink in the same frame (the older identity stays, the paper's rule);
+    the younger one is lost again as it was before that relink (on ``pan`` 6 at 29.0 s the motorboat's
+    cluster died while a new cluster on it took a fragment's identity lost 0.6 s before; the
+    motorboat's identity, lost after the relink pass, could not go to it: two switches).
+    ``split_follow_box`` (0: off): when a reported cluster's box jumps away from its own box of the
+    frame before (carried by the camera; intersection over union under 0.1) while a cluster born in
+    this frame overlaps that box by at least this IoU, the new cluster takes the identity (the boat it
+    was on) and the jumped cluster gets a new one, which the hand-over may replace by an older
+    identity lost on its box (also later: that one's new cluster may die soon after) (the paper's split gives the identity to the part holding most of its
+    features: on ``ir`` 5 and 7 at 3.2-3.5 s the ferry's cluster, linked to boat 6's features, split
+    and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
+    rib's identity went to the fishing boat's part)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2368,6 +2391,10 @@ class ClusterParams:
     far_open_px: float = 30.0
     far_sky_tol: float = 8.0
     far_open_contrast: float = 20.0
+    relink_dy_px_per_s: float = 0.0
+    relink_dy_side: bool = False
+    hand_over_relinked: bool = False
+    split_follow_box: float = 0.0
 
 
 class FeatureClusterer:
@@ -2434,6 +2461,9 @@ class FeatureClusterer:
         self._lost_alt_dir: dict = {}  # lost identity -> the directions of its _lost_alt box's corners
         self._relinked_alt: dict = {}  # relinked identity -> (its _lost_alt entry, directions) at the relink (relink_alt_s)
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
+        self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
+        self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
+        self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
         self._prev_camera = None
@@ -2883,6 +2913,30 @@ class FeatureClusterer:
             self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
+        if p.split_follow_box > 0 and new and self._prev_boxes:
+            # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
+            for i in range(len(cids)):
+                r = int(rep[i])
+                if int(cids[i]) not in self._known or r not in self._prev_boxes:
+                    continue
+                lb = carry(self._prev_boxes[r])
+                if _iou(boxes[i], lb) >= 0.1:
+                    continue
+                best, best_o = -1, p.split_follow_box
+                for j in new:
+                    o = _iou(boxes[j], lb)
+                    if o >= best_o:
+                        best, best_o = j, o
+                if best < 0:
+                    continue
+                nid = int(self.graph.next_id)
+                self.graph.next_id += 1
+                self._alias[int(cids[best])] = r
+                rep[best] = r
+                self._alias[int(cids[i])] = nid
+                rep[i] = nid
+                new.remove(best)
+                self._swapped.add(nid)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -2916,7 +2970,13 @@ class FeatureClusterer:
                                           or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
                     # session 22: a boat keeps its waterline's row (its range) through a loss
                     dy = abs((boxes[i][1] + boxes[i][3]) - (lb[1] + lb[3]))
-                    if dy > p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0):
+                    dy_max = p.relink_dy_h * max(float(boxes[i][3]), float(lb[3]), 1.0)
+                    if p.relink_dy_px_per_s > 0 and (not p.relink_dy_side or k in self._lost_side):
+                        # session 23: the row drifts while the boat is out of the view for long (the
+                        # drift on top of the smaller box's slack: a tall carried box has its own)
+                        dy_max = max(dy_max, p.relink_dy_h * max(min(float(boxes[i][3]), float(lb[3])), 1.0)
+                                     + p.relink_dy_px_per_s * (t - tl) * self._zoom)
+                    if dy > dy_max:
                         continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
@@ -2940,9 +3000,13 @@ class FeatureClusterer:
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
         done = set()
+        self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
         for d, _, i, k in sorted(pairs):
             if i in done or k in present:
                 continue
+            if p.hand_over_relinked:
+                self._relinked_now[k] = (i, self._lost[k], self._lost_dir.get(k), self._lost_alt.get(k),
+                                         self._lost_alt_dir.get(k), self._relinked.get(k), self._relinked_alt.get(k))
             self._alias[int(cids[i])] = k
             rep[i] = k
             present.add(k)
@@ -3030,6 +3094,12 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_dy_px_per_s > 0 and p.relink_dy_side:  # session 23: lost at the left or right edge
+                    w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
+                    if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
+                        self._lost_side.add(k)
+                    else:
+                        self._lost_side.discard(k)
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
                         or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
@@ -3051,6 +3121,17 @@ class FeatureClusterer:
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is not None and r in self._relinked_now:
+                        # hand_over_relinked: the younger identity relinked this frame is lost again as before
+                        e = self._relinked_now.pop(r)
+                        self._lost[r] = e[1]
+                        for dct, v in ((self._lost_dir, e[2]), (self._lost_alt, e[3]), (self._lost_alt_dir, e[4]),
+                                       (self._relinked, e[5]), (self._relinked_alt, e[6])):
+                            if v is None:
+                                dct.pop(r, None)
+                            else:
+                                dct[r] = v
+                        continue
                     if r is not None:
                         renamed.add(r)
                         self._lost.pop(r, None)
@@ -3068,6 +3149,10 @@ class FeatureClusterer:
             self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
+        if len(self._swapped) > 2 * len(now) + 16:  # bounded memory
+            self._swapped = {k for k in self._swapped if k in now}
+        if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_side = {k for k in self._lost_side if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
             self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
@@ -3156,8 +3241,9 @@ class FeatureClusterer:
         best, best_o = -1, self.params.relink_overlap
         for i, r in enumerate(rep):
             r = int(r)
-            if r <= k or r != int(cids[i]):
-                continue  # older, or already carrying another identity
+            if r <= k or (r != int(cids[i]) and r not in self._swapped
+                          and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
+                continue  # older, or already carrying another identity (unless relinked this frame: hand_over_relinked)
             b = boxes[i]
             iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
             ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
