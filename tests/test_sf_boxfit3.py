@@ -93,11 +93,12 @@ def run_clusterer(params, img):
     return tr.boxes[0]
 
 
-def test_grow_sign_is_off_by_default_and_the_clusterer_passes_it():
-    assert ClusterParams().grow_sign == 0.0
+def test_grow_sign_defaults_and_the_clusterer_passes_it():
+    d = ClusterParams()  # on since session 23: -0.7, on the trailing side only (grow_sign_trail_px_s 2)
+    assert (d.grow_sign, d.grow_sign_trail_px_s) == (-0.7, 2.0)
     img = scene(6)
-    p = dict(confirm_s=0.0, relink_s=0.0, coast_s=0.0)
-    off = run_clusterer(ClusterParams(**p), img)
+    p = dict(confirm_s=0.0, relink_s=0.0, coast_s=0.0, grow_sign_trail_px_s=0.0)
+    off = run_clusterer(ClusterParams(grow_sign=0.0, **p), img)
     on = run_clusterer(ClusterParams(grow_sign=0.7, **p), img)
     assert off[0] == pytest.approx(92)  # the foam is in
     assert on.tolist() == pytest.approx(list(HULL))

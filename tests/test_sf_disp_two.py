@@ -23,13 +23,15 @@ def run_pair(params, n=20, pan=0.0, foam_dx=0.0):
     return np.array(out)
 
 
-BASE = dict(confirm_s=0.0, relink_s=0.0, box_dv_px_s=0.0)
+# session 22's rule alone: session 23's refinements (on by default since then) off
+BASE = dict(confirm_s=0.0, relink_s=0.0, box_dv_px_s=0.0, box_disp_two_wake_px=0.0, box_disp_two_anchor=False,
+            box_disp_two_far_h=0.0)
 
 
 @pytest.mark.parametrize("pan", [0.0, 3.0])
 def test_the_foam_member_of_a_two_member_box_leaves_it(pan):
-    assert ClusterParams().box_disp_two is False
-    off = run_pair(ClusterParams(**BASE), pan=pan)
+    assert ClusterParams().box_disp_two is True  # on by default since session 23
+    off = run_pair(ClusterParams(box_disp_two=False, **BASE), pan=pan)
     assert off[-1][0] == pytest.approx(78)  # the foam is in the box (the rule needs three members)
     on = run_pair(ClusterParams(box_disp_two=True, **BASE), pan=pan)
     np.testing.assert_allclose(on[:5], off[:5], atol=1e-6)  # no displacement known in the first half second
@@ -39,11 +41,11 @@ def test_the_foam_member_of_a_two_member_box_leaves_it(pan):
 def test_two_members_moving_together_both_stay():
     # the second feature moves with the first (another part of the boat): nothing leaves
     on = run_pair(ClusterParams(box_disp_two=True, **BASE), foam_dx=0.5)
-    off = run_pair(ClusterParams(**BASE), foam_dx=0.5)
+    off = run_pair(ClusterParams(box_disp_two=False, **BASE), foam_dx=0.5)
     np.testing.assert_allclose(on, off)
     assert on[-1][0] == pytest.approx(78 + 9.5)
 
 
 def test_a_pair_slower_than_the_floor_is_left_alone():
     slow = run_pair(ClusterParams(box_disp_two=True, box_disp_min_px=6.0, **BASE))
-    np.testing.assert_allclose(slow, run_pair(ClusterParams(**BASE)))
+    np.testing.assert_allclose(slow, run_pair(ClusterParams(box_disp_two=False, **BASE)))

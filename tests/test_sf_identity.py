@@ -142,7 +142,9 @@ def _joined_run(skip, dv=0.0, zoom_scaled=False, zoom=1.0):
     identity and the last frame's tracks."""
     from seawatch.types import TrackState
 
-    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0,
+    # box_disp_two (on since session 23) would leave the member that moves onto the second object
+    # out of the older cluster's box: no joined report to test here
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0, box_disp_two=False,
                                        relink_overlap=0.0, coast_skip_merged=skip, coast_skip_merged_dv=dv,
                                        coast_skip_merged_zoom=zoom_scaled))
     a, va = [[102, 61], [110, 62]], [[5, 0], [5, 0]]

@@ -1,4 +1,5 @@
-"""Session 23 (issue #8, the switches left, helper H3): ``relink_dy_px_per_s`` (off by default) lets
+"""Session 23 (issue #8, the switches left, helper H3): ``relink_dy_px_per_s`` (on by default since
+session 23, with the other fields here; the runs below start from all four off) lets
 the row check of ``relink_dy_h`` grow with the time lost, on top of the smaller box's slack; with
 ``relink_dy_side`` only for identities lost with their last box at the image's left or right edge
 (the rib on ``pan``, left behind by the pan at 10 s and back 40-50 px higher at 35 s)."""
@@ -13,7 +14,7 @@ EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 # the other relink checks off except the row check (relink_dy_h 1.5, the default); a wide gate
 OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=30.0, coast_s=0.0,
            relink_px=200.0, relink_iou_tie=False, relink_view_px=0.0, relink_min_area=0.0,
-           relink_height_zoom_min=0.0)
+           relink_height_zoom_min=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False, split_follow_box=0.0)
 EDGE = [[0, 60], [24, 66]]  # a boat at the image's left edge (its box starts at x = 0)
 MID = [[100, 60], [124, 66]]  # the same boat inside the image
 HIGHER = [[140, 35], [164, 41]]  # a cluster like it, 25 px higher (its waterline's row)
@@ -42,9 +43,10 @@ def _bottom_gap(a, b):
     return abs(max(p[1] for p in a) - max(p[1] for p in b))
 
 
-def test_off_by_default_and_off_is_the_old_behaviour():
+def test_defaults_and_off_is_the_old_behaviour():
     p = ClusterParams()
-    assert p.relink_dy_px_per_s == 0.0 and p.relink_dy_side is False and p.relink_dy_h == 1.5
+    assert (p.relink_dy_px_per_s, p.relink_dy_side, p.relink_dy_h) == (1.2, True, 1.5)
+    assert (p.hand_over_relinked, p.split_follow_box) == (True, 0.5)
     assert _bottom_gap(EDGE, HIGHER) == 25
     took, c = _run(EDGE, HIGHER, 20.0)
     assert not took and len(c._lost) == 1  # 25 px off the row: refused by relink_dy_h, still lost
@@ -107,7 +109,7 @@ A = [[100, 60], [130, 70]]  # the boat's cluster (the older identity)
 F = [[100, 90], [104, 94]]  # a fragment moving otherwise (a younger identity), lost before A
 N = [[102, 62], [128, 72]]  # a new cluster on the boat, born in the frame where A's cluster dies
 OFF2 = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
-            relink_dy_h=0.0, relink_view_px=0.0)
+            relink_dy_h=0.0, relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False, split_follow_box=0.0)
 
 
 def _hand_over_run(**kw):
@@ -128,8 +130,7 @@ def _hand_over_run(**kw):
     return int(t5.ids[0]), a_id, f_id, c
 
 
-def test_hand_over_relinked_off_by_default_and_old_behaviour():
-    assert ClusterParams().hand_over_relinked is False
+def test_hand_over_relinked_off_is_the_old_behaviour():
     got, a_id, f_id, c = _hand_over_run()
     assert got == f_id  # relinked to the fragment's younger identity; the boat's own is lost
     assert a_id in c._lost and f_id not in c._lost
@@ -146,7 +147,7 @@ def test_hand_over_relinked_keeps_the_older_identity():
 P1 = [[100, 60], [130, 70]]  # boat 1 (the identity's boat)
 P2 = [[20, 120], [44, 130]]  # boat 2, far from boat 1 (more than the graph's 50 px)
 OFF3 = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
-            relink_view_px=0.0)
+            relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False, split_follow_box=0.0)
 
 
 def _jump_run(with_y, **kw):
@@ -170,8 +171,7 @@ def _jump_run(with_y, **kw):
     return on, x_id, y_id, c
 
 
-def test_split_follow_box_off_by_default_and_old_behaviour():
-    assert ClusterParams().split_follow_box == 0.0
+def test_split_follow_box_off_is_the_old_behaviour():
     on, x_id, _, _ = _jump_run(False)
     assert on[2] == x_id and on[1] != x_id  # the identity goes with the features (the paper's rule)
 

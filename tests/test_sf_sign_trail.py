@@ -71,7 +71,7 @@ def run_clusterer(params, img, vx):
 
 
 def test_the_clusterer_takes_the_side_from_the_members_motion():
-    assert ClusterParams().grow_sign_trail_px_s == 0.0
+    assert ClusterParams().grow_sign_trail_px_s == 2.0  # on by default since session 23
     img = scene(6, bright_bow=True)
     p = dict(confirm_s=0.0, relink_s=0.0, coast_s=0.0, grow_sign=0.7)
     # moving right at 20 px/s: the foam (left) out, the white bow in
@@ -81,4 +81,4 @@ def test_the_clusterer_takes_the_side_from_the_members_motion():
     slow = run_clusterer(ClusterParams(grow_sign_trail_px_s=30.0, **p), img, 20.0)
     assert slow.tolist() == pytest.approx([92, 60, 36, 7])
     # the threshold off (0): the rule on every side, as in session 20
-    assert run_clusterer(ClusterParams(**p), img, 20.0).tolist() == pytest.approx(list(HULL))
+    assert run_clusterer(ClusterParams(grow_sign_trail_px_s=0.0, **p), img, 20.0).tolist() == pytest.approx(list(HULL))

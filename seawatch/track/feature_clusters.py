@@ -2045,6 +2045,11 @@ class ClusterParams:
     Off by default: on the 12 tuning sequences (mean METE 0.4343, identity switches 65 without)
     0.7 gave 0.4293 / 81, -0.7 0.4283 / 69, -0.7 with 16 px 0.4296 / 68, with 12 px 0.4304 / 67,
     none both 0.004 lower and within 2 switches (docs/stable_features_log.md, "Session 20").
+    Session 23: on by default, together (the lead's decision U, docs/stable_features_log.md):
+    ``grow_sign`` -0.7 with ``grow_sign_trail_px_s`` 2, ``box_disp_two`` with ``box_disp_two_wake_px``
+    2, ``box_disp_two_anchor`` and ``box_disp_two_far_h`` 1, and helper H3's ``relink_dy_px_per_s``
+    1.2 with ``relink_dy_side``, ``hand_over_relinked`` and ``split_follow_box`` 0.5 (the off values
+    below are the fields' old defaults).
     Session 22: ``box_disp_two`` (False: off): ``box_disp_s`` also for a box of two members, the
     one that moved farther being the boat's (see :meth:`FeatureClusterer._disp_members`).
     Session 23 (H2): ``box_disp_two_wake_px`` (0: off): with ``box_disp_two``, the member that
@@ -2331,13 +2336,13 @@ class ClusterParams:
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
     box_disp_q: float = 0.0
-    box_disp_two: bool = False
-    box_disp_two_wake_px: float = 0.0
-    box_disp_two_anchor: bool = False
-    box_disp_two_far_h: float = 0.0
-    grow_sign: float = 0.0
+    box_disp_two: bool = True
+    box_disp_two_wake_px: float = 2.0
+    box_disp_two_anchor: bool = True
+    box_disp_two_far_h: float = 1.0
+    grow_sign: float = -0.7
     grow_sign_max_px: float = 0.0
-    grow_sign_trail_px_s: float = 0.0
+    grow_sign_trail_px_s: float = 2.0
     relink_dv_px_s: float = 0.0
     hand_over_dv_px_s: float = 0.0
     dv_still_px_s: float = 0.0
@@ -2391,10 +2396,10 @@ class ClusterParams:
     far_open_px: float = 30.0
     far_sky_tol: float = 8.0
     far_open_contrast: float = 20.0
-    relink_dy_px_per_s: float = 0.0
-    relink_dy_side: bool = False
-    hand_over_relinked: bool = False
-    split_follow_box: float = 0.0
+    relink_dy_px_per_s: float = 1.2
+    relink_dy_side: bool = True
+    hand_over_relinked: bool = True
+    split_follow_box: float = 0.5
 
 
 class FeatureClusterer:
