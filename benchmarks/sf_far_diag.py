@@ -26,7 +26,6 @@ Example::
 
 from __future__ import annotations
 
-import json
 import sys
 import warnings
 
@@ -35,7 +34,7 @@ import numpy as np
 
 def main(argv=None) -> int:
     sys.path.insert(0, __file__.rsplit("/", 1)[0])
-    from sf_diagnose import EVAL_SEEDS, _process, mete_pairs, snapshot_cache
+    from sf_diagnose import _process, mete_pairs, replay_setup
 
     import argparse
 
@@ -51,24 +50,10 @@ def main(argv=None) -> int:
     ap.add_argument("--cols", type=float, default=40.0)
     ap.add_argument("--all", action="store_true", help="with --boat: print its frames after the first match too")
     args = ap.parse_args(argv)
-    if args.seed in EVAL_SEEDS:
-        print("sf_far_diag.py: seeds 0, 3, 4 are evaluation seeds", file=sys.stderr)
+    setup = replay_setup(args, "sf_far_diag.py")
+    if setup is None:
         return 2
-    import cv2
-
-    from seawatch.detect.features import StableFeatureExtractor
-    from seawatch.sim import make_scenario
-    from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
-
-    cv2.setNumThreads(1)
-    kw = json.loads(args.params)
-    scn = make_scenario(args.scenario, seed=args.seed)
-    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), ClusterParams(**kw),
-                               camera=scn.camera, horizon="camera")
-    _, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
-    if recorded is None:
-        print("no snapshots in the cache for this sequence", file=sys.stderr)
-        return 2
+    scn, trk, recorded = setup
     p = trk.clusterer.params
     first_seen, first_match = {}, {}
     rows = []  # (boat, t, cause, record)
