@@ -2164,6 +2164,12 @@ class ClusterParams:
     ``coast_max_aspect`` (False: off; session 22, lead): a coasted box grown to more than
     ``max_aspect`` times wider than tall is not reported (outcome "size"), as a live report is not.
 
+    Session 23 (helper H5, faint boats lost on ``pan``): ``coast_outside_wait`` (False: off): a coast
+    whose expected box's centre lies outside the image (outcome "outside") is not ended but waits,
+    unreported, and is looked at again (the grow's checks) when the box comes back into the image
+    within ``coast_s`` of the loss: a boat the pan took out of the view and brings back is reported
+    as soon as the image shows it there, not only when a new cluster forms on it and is relinked.
+
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
     waterline) lies more than this many times the taller of the two boxes' heights above or below the
@@ -2400,6 +2406,7 @@ class ClusterParams:
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
+    coast_outside_wait: bool = False
 
 
 class FeatureClusterer:
@@ -3731,6 +3738,11 @@ class FeatureClusterer:
         for j in np.flatnonzero(~ok):  # a coast that failed a check has ended: no report back and forth
             k = int(ids[j])
             tl = self._lost[k][0]
+            if p.coast_outside_wait and why[j] == "outside":
+                # session 23 (H5): a boat the pan took out of the view is looked at again when its
+                # expected box comes back into the image (within coast_s of its loss)
+                self._coast_fail.pop(k, None)
+                continue
             if (p.coast_retry_s > 0 and why[j] in ("not found", "contrast", "size")
                     and (low is None or low[j])):
                 # coast_retry_s: the grow's checks failed (a wave over a small boat, the boat off the
