@@ -29,6 +29,8 @@ from sf_diagnose import _process, mete_pairs, replay_parser, replay_setup  # noq
 
 def main(argv=None) -> int:
     ap = replay_parser("sf_faint_lost.py", __doc__, cache_required=False)
+    ap.add_argument("--dump", type=int, default=None, metavar="BOAT",
+                    help="print each lost frame of this boat: time, cause, true box, the identity's last coast box")
     args = ap.parse_args(argv)
     setup = replay_setup(args, "sf_faint_lost")
     if setup is None:
@@ -79,6 +81,11 @@ def main(argv=None) -> int:
             else:
                 cause = "retired"
             parts[vid][cause] += w
+            if args.dump == vid:
+                lk = [e for e in c.coast_log if e[1] == k]
+                eb = np.round(lk[-1][2], 1).tolist() if lk else None
+                print(f"t {f.t_s:6.2f} id {k} {cause:16s} true {np.round(gb[j], 1).tolist()} coast box {eb} "
+                      f"at t {lk[-1][0] if lk else None}")
             b = gb[j].astype(np.float64)
             xy = snap.xy
             inside = ((xy[:, 0] >= b[0]) & (xy[:, 0] <= b[0] + b[2]) & (xy[:, 1] >= b[1]) & (xy[:, 1] <= b[1] + b[3]))

@@ -86,3 +86,47 @@ def test_the_wait_ends_with_coast_s():
     assert "reported" not in [e[3] for e in c.coast_log]
     c, ident, out = run(coast_outside_wait=True, coast_s=0.5, out_frames=4)
     assert out[-1].ids.tolist() == [ident]
+
+
+def hull(seed):
+    """Grey sea (120, noise 2) with a dark hull (60) 40 x 10 px at x 100-139, y 60-69."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, SHAPE)
+    img[60:70, 100:140] = 60.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def run_fragment(**kw):
+    """Two features on the hull's left end (the live box is not grown: ``grow_box`` 0, so the identity is
+    lost with a 10 x 7 px fragment of the 40 x 10 hull); then the features are gone and the coast grows
+    the whole hull there (5.7 times the fragment's area)."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0, **kw))
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap([[104, 63], [110, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), hull(k))
+    assert len(tr) == 1 and tr.boxes[0, 2] * tr.boxes[0, 3] <= 80
+    ident = int(tr.ids[0])
+    tr = c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), hull(6))[1]
+    return c, ident, tr
+
+
+def test_grow_up_off_by_default_the_size_check_refuses_the_whole_hull():
+    assert ClusterParams().coast_grow_up == 0.0
+    c, _, tr = run_fragment()
+    assert len(tr) == 0
+    assert [e[3] for e in c.coast_log] == ["size"]
+
+
+def test_grow_up_takes_the_whole_hull_around_the_fragment():
+    c, ident, tr = run_fragment(coast_grow_up=6.0)
+    assert tr.ids.tolist() == [ident]
+    assert tr.states.tolist() == [int(TrackState.COASTING)]
+    assert np.allclose(tr.boxes[0], [100, 60, 40, 10], atol=1)
+    assert [e[3] for e in c.coast_log] == ["reported"]
+
+
+def test_grow_up_bounded():
+    # the hull is 5.7 times the fragment's area: beyond a bound of 4 the size check still refuses it
+    c, _, tr = run_fragment(coast_grow_up=4.0)
+    assert len(tr) == 0
+    assert [e[3] for e in c.coast_log] == ["size"]

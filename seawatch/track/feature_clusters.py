@@ -2169,6 +2169,11 @@ class ClusterParams:
     unreported, and is looked at again (the grow's checks) when the box comes back into the image
     within ``coast_s`` of the loss: a boat the pan took out of the view and brings back is reported
     as soon as the image shows it there, not only when a new cluster forms on it and is relinked.
+    ``coast_grow_up`` (0: off): a coast whose grown box is more than ``coast_size_ratio`` times the
+    expected box's area is still reported (and followed) when it is at most this many times that area
+    and holds at least 0.8 of the expected box: the box a faint small boat was lost with is often a
+    fragment of its hull (its cluster held part of it), and the grow at the right place found the
+    whole boat, which the size check refused (``pan`` 55, the motorboat: a 16x5 box on a 39x10 hull).
 
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
@@ -2407,6 +2412,7 @@ class ClusterParams:
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
     coast_outside_wait: bool = False
+    coast_grow_up: float = 0.0
 
 
 class FeatureClusterer:
@@ -3709,6 +3715,15 @@ class FeatureClusterer:
             ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
+            if p.coast_grow_up > 0:
+                # session 23 (H5): the expected box was a fragment of the hull (a faint small boat's
+                # cluster held part of it): a grown box up to coast_grow_up times larger that holds
+                # the expected box is the boat
+                ix = np.maximum(np.minimum(b[:, 0] + b[:, 2], grown[:, 0] + grown[:, 2]) - np.maximum(b[:, 0], grown[:, 0]), 0)
+                iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
+                held = ix * iy >= 0.8 * b[:, 2] * b[:, 3]
+                good |= (found & (contrast >= p.min_contrast) & (ratio > p.coast_size_ratio)
+                         & (ratio <= p.coast_grow_up) & held)
             if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
                 good &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
             searched = np.zeros(len(sel), bool)
