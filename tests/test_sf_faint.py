@@ -130,3 +130,19 @@ def test_grow_up_bounded():
     c, _, tr = run_fragment(coast_grow_up=4.0)
     assert len(tr) == 0
     assert [e[3] for e in c.coast_log] == ["size"]
+
+
+def test_grow_up_not_onto_a_boat_reported_now():
+    # a second cluster (moving the other way) on the hull's right end is reported in the frame of the
+    # coast: the whole hull grown from the lost fragment covers that report, so it is not taken
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, coast_s=1.0, grow_box=0.0, coast_grow_up=6.0))
+    xy = [[104, 63], [110, 66], [130, 63], [136, 66]]
+    v = [[5, 0], [5, 0], [-5, 0], [-5, 0]]
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap(xy, v, 0.1 * k, k, [1, 2, 3, 4]), hull(k))
+    assert len(tr) == 2
+    right = int(tr.ids[np.argmax(tr.boxes[:, 0])])
+    tr = c.update(snap(xy[2:], v[2:], 0.6, 6, [3, 4]), hull(6))[1]
+    assert tr.ids.tolist() == [right]
+    assert [e[3] for e in c.coast_log] == ["size"]

@@ -2173,7 +2173,8 @@ class ClusterParams:
     expected box's area is still reported (and followed) when it is at most this many times that area
     and holds at least 0.8 of the expected box: the box a faint small boat was lost with is often a
     fragment of its hull (its cluster held part of it), and the grow at the right place found the
-    whole boat, which the size check refused (``pan`` 55, the motorboat: a 16x5 box on a 39x10 hull).
+    whole boat, which the size check refused (``pan`` 55, the motorboat: a 16x5 box on a 39x10 hull);
+    not when that grown box covers more than a quarter of one of this frame's reports (another boat).
 
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
@@ -3722,6 +3723,13 @@ class FeatureClusterer:
                 ix = np.maximum(np.minimum(b[:, 0] + b[:, 2], grown[:, 0] + grown[:, 2]) - np.maximum(b[:, 0], grown[:, 0]), 0)
                 iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
                 held = ix * iy >= 0.8 * b[:, 2] * b[:, 3]
+                if len(reported):  # not onto a boat reported now (ir 7: a sailboat's coast grown onto the ferry)
+                    r = np.asarray(reported, np.float64).reshape(-1, 4)
+                    jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                                    - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+                    jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                                    - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+                    held &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
                 good |= (found & (contrast >= p.min_contrast) & (ratio > p.coast_size_ratio)
                          & (ratio <= p.coast_grow_up) & held)
             if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
