@@ -2164,6 +2164,18 @@ class ClusterParams:
     ``coast_max_aspect`` (False: off; session 22, lead): a coasted box grown to more than
     ``max_aspect`` times wider than tall is not reported (outcome "size"), as a live report is not.
 
+    Session 23 (helper H5, faint boats lost on ``pan``): ``coast_outside_wait`` (False: off): a coast
+    whose expected box's centre lies outside the image (outcome "outside") is not ended but waits,
+    unreported, and is looked at again (the grow's checks) when the box comes back into the image
+    within ``coast_s`` of the loss: a boat the pan took out of the view and brings back is reported
+    as soon as the image shows it there, not only when a new cluster forms on it and is relinked.
+    ``coast_grow_up`` (0: off): a coast whose grown box is more than ``coast_size_ratio`` times the
+    expected box's area is still reported (and followed) when it is at most this many times that area
+    and holds at least 0.8 of the expected box: the box a faint small boat was lost with is often a
+    fragment of its hull (its cluster held part of it), and the grow at the right place found the
+    whole boat, which the size check refused (``pan`` 55, the motorboat: a 16x5 box on a 39x10 hull);
+    not when that grown box covers more than a quarter of one of this frame's reports (another boat).
+
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
     waterline) lies more than this many times the taller of the two boxes' heights above or below the
@@ -2400,6 +2412,8 @@ class ClusterParams:
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
+    coast_outside_wait: bool = False
+    coast_grow_up: float = 0.0
 
 
 class FeatureClusterer:
@@ -3702,6 +3716,22 @@ class FeatureClusterer:
             ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
             good = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
                     & (ratio >= 1.0 / p.coast_size_ratio))
+            if p.coast_grow_up > 0:
+                # session 23 (H5): the expected box was a fragment of the hull (a faint small boat's
+                # cluster held part of it): a grown box up to coast_grow_up times larger that holds
+                # the expected box is the boat
+                ix = np.maximum(np.minimum(b[:, 0] + b[:, 2], grown[:, 0] + grown[:, 2]) - np.maximum(b[:, 0], grown[:, 0]), 0)
+                iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
+                held = ix * iy >= 0.8 * b[:, 2] * b[:, 3]
+                if len(reported):  # not onto a boat reported now (ir 7: a sailboat's coast grown onto the ferry)
+                    r = np.asarray(reported, np.float64).reshape(-1, 4)
+                    jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                                    - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+                    jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                                    - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+                    held &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+                good |= (found & (contrast >= p.min_contrast) & (ratio > p.coast_size_ratio)
+                         & (ratio <= p.coast_grow_up) & held)
             if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
                 good &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
             searched = np.zeros(len(sel), bool)
@@ -3731,6 +3761,11 @@ class FeatureClusterer:
         for j in np.flatnonzero(~ok):  # a coast that failed a check has ended: no report back and forth
             k = int(ids[j])
             tl = self._lost[k][0]
+            if p.coast_outside_wait and why[j] == "outside":
+                # session 23 (H5): a boat the pan took out of the view is looked at again when its
+                # expected box comes back into the image (within coast_s of its loss)
+                self._coast_fail.pop(k, None)
+                continue
             if (p.coast_retry_s > 0 and why[j] in ("not found", "contrast", "size")
                     and (low is None or low[j])):
                 # coast_retry_s: the grow's checks failed (a wave over a small boat, the boat off the
