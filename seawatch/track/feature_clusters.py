@@ -2269,7 +2269,22 @@ class ClusterParams:
     identity lost on its box (also later: that one's new cluster may die soon after) (the paper's split gives the identity to the part holding most of its
     features: on ``ir`` 5 and 7 at 3.2-3.5 s the ferry's cluster, linked to boat 6's features, split
     and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
-    rib's identity went to the fishing boat's part)."""
+    rib's identity went to the fishing boat's part).
+
+    Session 23 round 2 (helper H4, ``pan``'s switches at the new defaults): ``relink_side_h_ratio``
+    (0: off): an identity lost with its last box at the image's left or right edge (its last box,
+    clipped by the edge, tells nothing of its size) is relinked only to a cluster whose height lies
+    within this factor of the identity's own height: the median of its last ``relink_side_h_n`` (5)
+    reported boxes clear of both edges, scaled by the zoom's change since then (on ``pan`` 2 and 7
+    the rib and the fishing boat, both left behind by the pan at the image's left edge at ~10 s,
+    come back at 35 s and 39 s; the rib's cluster, 9 px tall at zoom 1.6, took the fishing boat's
+    identity, 15-20 px tall at zoom 1.0, whose carried box was the nearer: two switches each).
+    ``relink_undo_hand_over`` (False: off): when the cluster that took a lost identity by a relink
+    dies within ``relink_min_s`` (the relink undone), the hand-over is first tried on that cluster's
+    last box (carried): a younger cluster reported under its own identity overlapping it by
+    ``relink_overlap`` takes the identity, which is then not lost again (on ``pan`` 6 at 28.4 s the
+    motorboat's identity, relinked to a fragment at 28.0 s, went back to its old expected box while
+    the boat's own cluster was born on the fragment's box in the same frame: three switches)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2414,6 +2429,9 @@ class ClusterParams:
     split_follow_box: float = 0.5
     coast_outside_wait: bool = False
     coast_grow_up: float = 0.0
+    relink_side_h_ratio: float = 0.0
+    relink_side_h_n: int = 5
+    relink_undo_hand_over: bool = False
 
 
 class FeatureClusterer:
@@ -2483,6 +2501,7 @@ class FeatureClusterer:
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
+        self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
         self._prev_camera = None
@@ -2997,6 +3016,13 @@ class FeatureClusterer:
                                      + p.relink_dy_px_per_s * (t - tl) * self._zoom)
                     if dy > dy_max:
                         continue
+                if p.relink_side_h_ratio > 0 and k in self._lost_side and self._whole_h.get(k):
+                    # session 23 (H4): a boat left at the side edge keeps its size, from its boxes clear of the edge
+                    hw = self._whole_h[k]
+                    he = float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw]))
+                    hb = float(boxes[i][3])
+                    if max(hb, he) > p.relink_side_h_ratio * max(min(hb, he), 1.0):
+                        continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
@@ -3078,6 +3104,32 @@ class FeatureClusterer:
                     # relink_alt_memory: k came back through the label memory and is lost again soon:
                     # its entry from before (still kept in _lost, carried on) is the place to keep
                     mem = ((self._lost[k], self._lost_dir.get(k)), (self._lost_alt.get(k), self._lost_alt_dir.get(k)))
+                if (back is not None and t - back[0] <= p.relink_min_s + 1e-9 and p.relink_undo_hand_over
+                        and p.relink_overlap > 0 and k not in self._joined_apart):
+                    # session 23 (H4): a cluster born on the dying cluster's box takes k (the hand-over, on
+                    # that box), rather than k going back to where it was expected before the relink
+                    self._lost[k] = (t, carry(b), self._prev_vel.get(k))
+                    r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is not None:
+                        renamed.add(r)
+                        e = self._relinked_now.pop(r, None)
+                        if e is not None:  # hand_over_relinked: r is lost again as before its relink
+                            self._lost[r] = e[1]
+                            for dct, v in ((self._lost_dir, e[2]), (self._lost_alt, e[3]),
+                                           (self._lost_alt_dir, e[4]), (self._relinked, e[5]),
+                                           (self._relinked_alt, e[6])):
+                                if v is None:
+                                    dct.pop(r, None)
+                                else:
+                                    dct[r] = v
+                        else:
+                            self._lost.pop(r, None)
+                            self._lost_dir.pop(r, None)
+                            self._lost_alt.pop(r, None)
+                            self._lost_alt_dir.pop(r, None)
+                        if back_alt is not None and back_alt[0] is not None:
+                            self._relinked_alt.pop(k, None)
+                        continue
                 if back is not None and t - back[0] <= p.relink_min_s + 1e-9:
                     # the cluster that took k died within relink_min_s: k is lost as it was before,
                     # and that cluster no longer carries k (should it come back through the graph's
@@ -3113,7 +3165,8 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if p.relink_dy_px_per_s > 0 and p.relink_dy_side:  # session 23: lost at the left or right edge
+                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0:
+                    # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
                         self._lost_side.add(k)
@@ -3157,6 +3210,17 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
                         self._lost_alt.pop(r, None)
                         self._lost_alt_dir.pop(r, None)
+        if p.relink_side_h_ratio > 0 and getattr(snap, "shape", None) is not None:
+            # relink_side_h_ratio: each reported identity's last heights clear of the image's side edges
+            w_img = float(snap.shape[1])
+            for k, b in now.items():
+                if b[0] > 1.0 and b[0] + b[2] < w_img - 1.0 and b[3] > 0:
+                    hw = self._whole_h.setdefault(k, [])
+                    hw.append((float(b[3]), float(self._zoom)))
+                    if len(hw) > max(int(p.relink_side_h_n), 1):
+                        del hw[0]
+            if len(self._whole_h) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
+                self._whole_h = {k: v for k, v in self._whole_h.items() if k in now or k in self._lost}
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
