@@ -1336,6 +1336,24 @@ def grow_boxes(
     return (out, contrast) if return_contrast else out
 
 
+def _core_quantiles(k, v, n, q, lo, hi):
+    """Each cluster's ``q`` and ``1 - q`` quantiles (nearest rank inward: the ``floor(q (c - 1))``-th
+    and ``ceil((1 - q) (c - 1))``-th of its ``c`` sorted values) of the members' coordinate ``v``
+    (cluster index ``k`` in ``0..n-1``); clusters without members keep ``lo``, ``hi``.  With few
+    members (``q (c - 1) < 1``) that is the full extent."""
+    lo, hi = lo.copy(), hi.copy()
+    o = np.lexsort((v, k))
+    ks, vs = k[o], v[o]
+    cnt = np.bincount(ks, minlength=n)
+    start = np.concatenate(([0], np.cumsum(cnt)[:-1]))
+    has = cnt > 0
+    a = start + np.floor(q * (cnt - 1)).astype(np.int64)
+    b = start + np.ceil((1.0 - q) * (cnt - 1)).astype(np.int64)
+    lo[has] = vs[a[has]]
+    hi[has] = vs[b[has]]
+    return lo, hi
+
+
 def _inside_frac(a, b, x_only=False) -> float:
     """The fraction of box ``a``'s area (``x, y, w, h``; sides at least 1 px) that lies inside box ``b``
     (``x_only``: of its width inside ``b``'s columns)."""
@@ -2400,6 +2418,7 @@ class ClusterParams:
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
+    grow_core_q_ir: float = 0.0
 
 
 class FeatureClusterer:
@@ -2429,6 +2448,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self._top_frac = p.top_frac  # this frame's superstructure fraction (``update``'s ``ir``)
+        self._ir = False  # this frame is infrared (``update``'s ``ir``)
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
                                       p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
@@ -3339,6 +3359,7 @@ class FeatureClusterer:
         frame is infrared (``params.top_frac_ir`` then replaces ``params.top_frac``)."""
         p = self.params
         self._top_frac = p.top_frac_ir if (ir and p.top_frac_ir is not None) else p.top_frac
+        self._ir = bool(ir)
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
@@ -3465,6 +3486,10 @@ class FeatureClusterer:
             np.minimum.at(cy0, kb, xyb[:, 1])
             np.maximum.at(cx1, kb, xyb[:, 0])
             np.maximum.at(cy1, kb, xyb[:, 1])
+            if self._ir and p.grow_core_q_ir > 0 and len(kb):
+                # the core is the members' inner quantiles (a thermal halo's features at the rim)
+                cx0, cx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, cx0, cx1)
+                cy0, cy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, cy0, cy1)
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
