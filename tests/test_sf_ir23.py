@@ -68,3 +68,13 @@ def test_core_quantiles_nearest_rank_inward():
     lo, hi = _core_quantiles(k, v, 3, 0.1, np.full(3, -7.0), np.full(3, 7.0))
     assert lo.tolist() == [1.0, -7.0, 1.0]  # cluster 0: the 1st and 9th of 0..10; cluster 1: none
     assert hi.tolist() == [9.0, 7.0, 9.0]   # cluster 2: three members, the full extent
+
+
+def test_core_box_shrinks_the_box_before_the_growing_on_ir_only():
+    # grow_box 0: the box before the growing is reported as it is
+    base = dict(BASE, grow_box=0.0, grow_core_q_ir=0.2)
+    assert report(ClusterParams(**base), ir=True) == pytest.approx([68, 60, 114, 12])  # full extent, padded by 2
+    on = ClusterParams(**base, grow_core_box_ir=True)
+    # x: the 2nd and 9th of the ten sorted (104, 147); y: 63 and 69; padded by 2
+    assert report(on, ir=True) == pytest.approx([102, 61, 47, 10])
+    assert report(on, ir=False) == pytest.approx([68, 60, 114, 12])

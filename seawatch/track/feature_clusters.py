@@ -2419,6 +2419,7 @@ class ClusterParams:
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
     grow_core_q_ir: float = 0.0
+    grow_core_box_ir: bool = False
 
 
 class FeatureClusterer:
@@ -3471,6 +3472,18 @@ class FeatureClusterer:
         np.minimum.at(y0, kb, xyb[:, 1] - rb)
         np.maximum.at(x1, kb, xyb[:, 0] + rb)
         np.maximum.at(y1, kb, xyb[:, 1] + rb)
+        if self._ir and p.grow_core_q_ir > 0 and p.grow_core_box_ir and len(kb):
+            # the box before the growing (reported where the growing fails): the members' inner
+            # quantiles padded by the largest radius, within the full extent
+            rmax = np.zeros(n)
+            np.maximum.at(rmax, kb, rb)
+            qx0, qx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, x0, x1)
+            qy0, qy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, y0, y1)
+            has = np.bincount(kb, minlength=n) > 0
+            x0 = np.where(has, np.maximum(x0, qx0 - rmax), x0)
+            x1 = np.where(has, np.minimum(x1, qx1 + rmax), x1)
+            y0 = np.where(has, np.maximum(y0, qy0 - rmax), y0)
+            y1 = np.where(has, np.minimum(y1, qy1 + rmax), y1)
         if snap.shape is not None:
             h, w = snap.shape
             x0, x1 = np.clip(x0, 0, w), np.clip(x1, 0, w)
