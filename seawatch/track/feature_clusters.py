@@ -2275,7 +2275,19 @@ class ClusterParams:
     identity lost on its box (also later: that one's new cluster may die soon after) (the paper's split gives the identity to the part holding most of its
     features: on ``ir`` 5 and 7 at 3.2-3.5 s the ferry's cluster, linked to boat 6's features, split
     and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
-    rib's identity went to the fishing boat's part)."""
+    rib's identity went to the fishing boat's part).
+
+    Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
+    (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
+    extent, which the object found must mostly cover and touch) is each cluster's box members' inner
+    quantiles ``q`` and ``1 - q`` per axis (nearest rank inward; the full extent for a cluster with
+    few members).  A warm boat's thermal halo moves with it, so features at the halo's rim are box
+    members; their full extent is then wider than the hull that the segmentation finds, the growing
+    fails its cover test and the padded features' extent is reported (sim ``ir`` 8: 0.05 of METE in
+    boxes over 1.5 times the boat's area, ``benchmarks/sf_boxfit_diag.py``, stage ``core_big``).
+    ``grow_core_box_ir`` (False): with ``grow_core_q_ir``, the box before the growing (reported where
+    the growing fails) is those quantiles too, padded by the members' largest radius (tried, not
+    better)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
