@@ -78,3 +78,40 @@ def test_core_box_shrinks_the_box_before_the_growing_on_ir_only():
     # x: the 2nd and 9th of the ten sorted (104, 147); y: 63 and 69; padded by 2
     assert report(on, ir=True) == pytest.approx([102, 61, 47, 10])
     assert report(on, ir=False) == pytest.approx([68, 60, 114, 12])
+
+
+def tower_scene(halo):
+    """A warm hull (rows 60-72, columns 100-150) with, above it, a warm tower (rows 44-60, columns 118-128)
+    when ``halo`` is False, or a thermal halo (as bright as the tower, fading upward and sideways) when True."""
+    rng = np.random.default_rng(11)
+    img = 40.0 + rng.normal(0.0, 1.5, (160, 240))
+    if halo:
+        yy, xx = np.mgrid[0:160, 0:240]
+        dx = np.maximum(np.maximum(100 - xx, xx - 149), 0)
+        dy = np.maximum(np.maximum(60 - yy, yy - 71), 0)
+        d = np.hypot(dx, dy)
+        img += 70.0 * np.exp(-0.5 * (d / 4.0) ** 2) * (d > 0)
+    else:
+        img[44:60, 118:128] = 100.0
+    img[60:72, 100:150] = 200.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def tower_report(params, halo, ir=True):
+    c = FeatureClusterer(params)
+    xy = [[104, 63], [118, 66], [131, 62], [147, 70]]
+    _, tr = c.update(snap(xy, [[20, 0]] * len(xy), 0.0, 0), tower_scene(halo), ir=ir)
+    assert len(tr) == 1
+    return tr.boxes[0].tolist()
+
+
+def test_top_halo_keeps_the_halo_out_of_the_top_and_the_tower_in():
+    off = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25)
+    on = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25, top_halo_ir=1.0)
+    assert off.top_halo_ir == 0.0 == ClusterParams().top_halo_ir
+    # without the step the halo above the hull is taken for a superstructure
+    b = tower_report(off, halo=True)
+    assert b[1] < 58
+    assert tower_report(on, halo=True)[1] >= 59  # with it the top stays at the hull's (+- the closing)
+    assert tower_report(on, halo=False) == tower_report(off, halo=False) == pytest.approx([100, 44, 50, 28])
+    assert tower_report(on, halo=True, ir=False) == b  # EO frames: off

@@ -1158,6 +1158,7 @@ def grow_boxes(
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
+    top_halo: float = 0.0,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1271,6 +1272,13 @@ def grow_boxes(
         paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
         boat) is a thin line whose columns' heights to the object's bottom are large.
 
+    top_halo : float
+        The top extension (``top_frac``) only through foreground brighter than this many times the
+        halo beside the object (0: off; not in the paper; session 23): the 90th percentile of the
+        deviations in the two columns left and right of the object over its rows.  A warm boat's
+        thermal halo lies around it, as far above the hull as beside it; its own superstructure
+        stands out more than the halo beside the hull.
+
     Returns
     -------
     boxes : (N, 4) float64 grown boxes.
@@ -1303,7 +1311,7 @@ def grow_boxes(
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide, side)
+                                            sf, cover_wide, side, top_halo)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1311,7 +1319,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, False, side)
+                                   sf, False, side, top_halo)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1325,7 +1333,7 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf, False, side)
+                                       cut_core_undo, wake_thick, sf, False, side, top_halo)
                 if box is not None:
                     contrast[n] = c3
         if box is not None:
@@ -1367,7 +1375,7 @@ def _inside_frac(a, b, x_only=False) -> float:
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
-              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0):
+              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1427,8 +1435,13 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
                                           wake_thick)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
-        ny0 = y0 + _extend_top(dev_all, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
-                               max(k_sigma * sigma, min_contrast, top_frac * peak), x0 > 0, x1 < ww)
+        tthr = max(k_sigma * sigma, min_contrast, top_frac * peak)
+        if top_halo > 0:  # not through a thermal halo: as bright as the halo beside the object
+            ox0, ox1, oy0, oy1 = nx0 - x0, nx1 - x0, ny0 - y0, ny1 - y0
+            side = np.concatenate((dev_all[oy0:oy1, max(ox0 - 2, 0):ox0].ravel(), dev_all[oy0:oy1, ox1:ox1 + 2].ravel()))
+            if side.size:
+                tthr = max(tthr, top_halo * float(np.percentile(side, 90)))
+        ny0 = y0 + _extend_top(dev_all, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0), tthr, x0 > 0, x1 < ww)
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
 
 
@@ -2432,6 +2445,7 @@ class ClusterParams:
     split_follow_box: float = 0.5
     grow_core_q_ir: float = 0.0
     grow_core_box_ir: bool = False
+    top_halo_ir: float = 0.0
 
 
 class FeatureClusterer:
@@ -3549,7 +3563,8 @@ class FeatureClusterer:
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
-                hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x)
+                hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
+                top_halo=p.top_halo_ir if self._ir else 0.0)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
