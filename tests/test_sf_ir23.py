@@ -115,3 +115,14 @@ def test_top_halo_keeps_the_halo_out_of_the_top_and_the_tower_in():
     assert tower_report(on, halo=True)[1] >= 59  # with it the top stays at the hull's (+- the closing)
     assert tower_report(on, halo=False) == tower_report(off, halo=False) == pytest.approx([100, 44, 50, 28])
     assert tower_report(on, halo=True, ir=False) == b  # EO frames: off
+
+
+def test_retry_grows_with_the_inner_core_only_where_the_full_extent_fails():
+    retry = ClusterParams(**BASE, grow_core_q_ir=0.2, grow_core_retry_ir=True)
+    assert ClusterParams().grow_core_retry_ir is False
+    assert report(retry, ir=True) == pytest.approx([100, 60, 50, 12])  # the full extent failed: the retry
+    assert report(retry, ir=True, xy=HULL) == report(ClusterParams(**BASE), ir=True, xy=HULL)
+    assert report(retry, ir=False) == report(ClusterParams(**BASE), ir=False)  # EO: off
+    # the tower above the hull: the full extent grows, the retry is not used (the tower stays in)
+    on = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25, grow_core_q_ir=0.4, grow_core_retry_ir=True)
+    assert tower_report(on, halo=False) == pytest.approx([100, 44, 50, 28])

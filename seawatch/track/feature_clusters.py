@@ -1158,7 +1158,7 @@ def grow_boxes(
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
-    top_halo: float = 0.0,
+    top_halo: float = 0.0, cores_retry: np.ndarray | None = None,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1279,6 +1279,11 @@ def grow_boxes(
         thermal halo lies around it, as far above the hull as beside it; its own superstructure
         stands out more than the halo beside the hull.
 
+    cores_retry : (N, 4) float, optional
+        A second core per cluster (NaN: none; not in the paper; session 23): where every window
+        above failed, the first window is tried once more with this core (the members' inner
+        quantiles on infrared frames, ``ClusterParams.grow_core_retry_ir``).
+
     Returns
     -------
     boxes : (N, 4) float64 grown boxes.
@@ -1299,6 +1304,7 @@ def grow_boxes(
     found = np.zeros(len(out), bool)
     trail = np.zeros(len(out), np.int64) if trail is None else np.asarray(trail, np.int64).reshape(-1)
     hints = None if hints is None else np.asarray(hints, np.float64).reshape(-1, 4)
+    cores_retry = None if cores_retry is None else np.asarray(cores_retry, np.float64).reshape(-1, 4)
     for n in range(len(out)):
         x, y, w, h = out[n]
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
@@ -1336,6 +1342,14 @@ def grow_boxes(
                                        cut_core_undo, wake_thick, sf, False, side, top_halo)
                 if box is not None:
                     contrast[n] = c3
+        if box is None and cores_retry is not None and np.all(np.isfinite(cores_retry[n])) and not large:
+            # the features' extent reaches beyond the object (a thermal halo's rim): its inner part
+            box, c4, _ = _grow_one(img, out[n], cores_retry[n], gx, gy, large, b, k_sigma, min_contrast,
+                                   max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
+                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
+                                   sf, cover_wide, side, top_halo)
+            if box is not None:
+                contrast[n] = c4
         if box is not None:
             out[n] = box
             found[n] = True
@@ -2446,6 +2460,7 @@ class ClusterParams:
     grow_core_q_ir: float = 0.0
     grow_core_box_ir: bool = False
     top_halo_ir: float = 0.0
+    grow_core_retry_ir: bool = False
 
 
 class FeatureClusterer:
@@ -3525,10 +3540,16 @@ class FeatureClusterer:
             np.minimum.at(cy0, kb, xyb[:, 1])
             np.maximum.at(cx1, kb, xyb[:, 0])
             np.maximum.at(cy1, kb, xyb[:, 1])
+            cores_retry = None
             if self._ir and p.grow_core_q_ir > 0 and len(kb):
                 # the core is the members' inner quantiles (a thermal halo's features at the rim)
-                cx0, cx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, cx0, cx1)
-                cy0, cy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, cy0, cy1)
+                qx0, qx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, cx0, cx1)
+                qy0, qy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, cy0, cy1)
+                if p.grow_core_retry_ir:  # only where the full extent fails
+                    cores_retry = np.stack([qx0, qy0, qx1 - qx0, qy1 - qy0], axis=1)
+                    cores_retry[~np.isfinite(cores_retry).all(axis=1)] = np.nan
+                else:
+                    cx0, cx1, cy0, cy1 = qx0, qx1, qy0, qy1
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
@@ -3564,7 +3585,7 @@ class FeatureClusterer:
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
                 hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
-                top_halo=p.top_halo_ir if self._ir else 0.0)
+                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
