@@ -1158,6 +1158,7 @@ def grow_boxes(
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
+    top_halo: float = 0.0, cores_retry: np.ndarray | None = None,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1271,6 +1272,18 @@ def grow_boxes(
         paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
         boat) is a thin line whose columns' heights to the object's bottom are large.
 
+    top_halo : float
+        The top extension (``top_frac``) only through foreground brighter than this many times the
+        halo beside the object (0: off; not in the paper; session 23): the 90th percentile of the
+        deviations in the two columns left and right of the object over its rows.  A warm boat's
+        thermal halo lies around it, as far above the hull as beside it; its own superstructure
+        stands out more than the halo beside the hull.
+
+    cores_retry : (N, 4) float, optional
+        A second core per cluster (NaN: none; not in the paper; session 23): where every window
+        above failed, the first window is tried once more with this core (the members' inner
+        quantiles on infrared frames, ``ClusterParams.grow_core_retry_ir``).
+
     Returns
     -------
     boxes : (N, 4) float64 grown boxes.
@@ -1291,6 +1304,7 @@ def grow_boxes(
     found = np.zeros(len(out), bool)
     trail = np.zeros(len(out), np.int64) if trail is None else np.asarray(trail, np.int64).reshape(-1)
     hints = None if hints is None else np.asarray(hints, np.float64).reshape(-1, 4)
+    cores_retry = None if cores_retry is None else np.asarray(cores_retry, np.float64).reshape(-1, 4)
     for n in range(len(out)):
         x, y, w, h = out[n]
         large = w * h > max_area_frac * hh * ww  # no small hull hidden inside its features' extent
@@ -1303,7 +1317,7 @@ def grow_boxes(
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide, side)
+                                            sf, cover_wide, side, top_halo)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1311,7 +1325,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, False, side)
+                                   sf, False, side, top_halo)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1325,15 +1339,41 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf, False, side)
+                                       cut_core_undo, wake_thick, sf, False, side, top_halo)
                 if box is not None:
                     contrast[n] = c3
+        if box is None and cores_retry is not None and np.all(np.isfinite(cores_retry[n])) and not large:
+            # the features' extent reaches beyond the object (a thermal halo's rim): its inner part
+            box, c4, _ = _grow_one(img, out[n], cores_retry[n], gx, gy, large, b, k_sigma, min_contrast,
+                                   max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
+                                   int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
+                                   sf, cover_wide, side, top_halo)
+            if box is not None:
+                contrast[n] = c4
         if box is not None:
             out[n] = box
             found[n] = True
     if return_found:
         return out, contrast, found
     return (out, contrast) if return_contrast else out
+
+
+def _core_quantiles(k, v, n, q, lo, hi):
+    """Each cluster's ``q`` and ``1 - q`` quantiles (nearest rank inward: the ``floor(q (c - 1))``-th
+    and ``ceil((1 - q) (c - 1))``-th of its ``c`` sorted values) of the members' coordinate ``v``
+    (cluster index ``k`` in ``0..n-1``); clusters without members keep ``lo``, ``hi``.  With few
+    members (``q (c - 1) < 1``) that is the full extent."""
+    lo, hi = lo.copy(), hi.copy()
+    o = np.lexsort((v, k))
+    ks, vs = k[o], v[o]
+    cnt = np.bincount(ks, minlength=n)
+    start = np.concatenate(([0], np.cumsum(cnt)[:-1]))
+    has = cnt > 0
+    a = start + np.floor(q * (cnt - 1)).astype(np.int64)
+    b = start + np.ceil((1.0 - q) * (cnt - 1)).astype(np.int64)
+    lo[has] = vs[a[has]]
+    hi[has] = vs[b[has]]
+    return lo, hi
 
 
 def _inside_frac(a, b, x_only=False) -> float:
@@ -1349,7 +1389,7 @@ def _inside_frac(a, b, x_only=False) -> float:
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
-              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0):
+              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1409,8 +1449,13 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
                                           wake_thick)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac:
-        ny0 = y0 + _extend_top(dev_all, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
-                               max(k_sigma * sigma, min_contrast, top_frac * peak), x0 > 0, x1 < ww)
+        tthr = max(k_sigma * sigma, min_contrast, top_frac * peak)
+        if top_halo > 0:  # not through a thermal halo: as bright as the halo beside the object
+            ox0, ox1, oy0, oy1 = nx0 - x0, nx1 - x0, ny0 - y0, ny1 - y0
+            side = np.concatenate((dev_all[oy0:oy1, max(ox0 - 2, 0):ox0].ravel(), dev_all[oy0:oy1, ox1:ox1 + 2].ravel()))
+            if side.size:
+                tthr = max(tthr, top_halo * float(np.percentile(side, 90)))
+        ny0 = y0 + _extend_top(dev_all, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0), tthr, x0 > 0, x1 < ww)
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
 
 
@@ -2284,7 +2329,25 @@ class ClusterParams:
     last box (carried): a younger cluster reported under its own identity overlapping it by
     ``relink_overlap`` takes the identity, which is then not lost again (on ``pan`` 6 at 28.4 s the
     motorboat's identity, relinked to a fragment at 28.0 s, went back to its old expected box while
-    the boat's own cluster was born on the fragment's box in the same frame: three switches)."""
+    the boat's own cluster was born on the fragment's box in the same frame: three switches).
+
+    Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
+    (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
+    extent, which the object found must mostly cover and touch) is each cluster's box members' inner
+    quantiles ``q`` and ``1 - q`` per axis (nearest rank inward; the full extent for a cluster with
+    few members).  A warm boat's thermal halo moves with it, so features at the halo's rim are box
+    members; their full extent is then wider than the hull that the segmentation finds, the growing
+    fails its cover test and the padded features' extent is reported (sim ``ir`` 8: 0.05 of METE in
+    boxes over 1.5 times the boat's area, ``benchmarks/sf_boxfit_diag.py``, stage ``core_big``).
+    ``grow_core_retry_ir`` (False): with ``grow_core_q_ir``, the full extent stays the core and the
+    inner quantiles are only a second try where every window failed (``grow_boxes``'s ``cores_retry``):
+    a large boat whose features cover it grows as before (on ``ir`` 2 the inner core alone cut the
+    tug's box).  0.4 with True: 12 tuning sequences mean METE 0.3712 -> 0.3595, switches 30 -> 28;
+    validation 0.3908 -> 0.3797, 32 -> 31 (``pan`` unchanged).  ``grow_core_box_ir`` (False): with
+    ``grow_core_q_ir``, the box before the growing (reported where the growing fails) is those
+    quantiles too, padded by the members' largest radius (tried, not better).  ``top_halo_ir`` (0: off):
+    on IR frames the top extension (``top_frac_ir``) only through foreground brighter than this many
+    times the halo beside the object (``grow_boxes``'s ``top_halo``; tried, not better)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2432,6 +2495,10 @@ class ClusterParams:
     relink_side_h_ratio: float = 0.0
     relink_side_h_n: int = 5
     relink_undo_hand_over: bool = False
+    grow_core_q_ir: float = 0.0
+    grow_core_box_ir: bool = False
+    top_halo_ir: float = 0.0
+    grow_core_retry_ir: bool = False
 
 
 class FeatureClusterer:
@@ -2461,6 +2528,7 @@ class FeatureClusterer:
         self.camera_id = camera_id
         p = self.params
         self._top_frac = p.top_frac  # this frame's superstructure fraction (``update``'s ``ir``)
+        self._ir = False  # this frame is infrared (``update``'s ``ir``)
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
                                       p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
@@ -3417,6 +3485,7 @@ class FeatureClusterer:
         frame is infrared (``params.top_frac_ir`` then replaces ``params.top_frac``)."""
         p = self.params
         self._top_frac = p.top_frac_ir if (ir and p.top_frac_ir is not None) else p.top_frac
+        self._ir = bool(ir)
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
@@ -3528,6 +3597,18 @@ class FeatureClusterer:
         np.minimum.at(y0, kb, xyb[:, 1] - rb)
         np.maximum.at(x1, kb, xyb[:, 0] + rb)
         np.maximum.at(y1, kb, xyb[:, 1] + rb)
+        if self._ir and p.grow_core_q_ir > 0 and p.grow_core_box_ir and len(kb):
+            # the box before the growing (reported where the growing fails): the members' inner
+            # quantiles padded by the largest radius, within the full extent
+            rmax = np.zeros(n)
+            np.maximum.at(rmax, kb, rb)
+            qx0, qx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, x0, x1)
+            qy0, qy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, y0, y1)
+            has = np.bincount(kb, minlength=n) > 0
+            x0 = np.where(has, np.maximum(x0, qx0 - rmax), x0)
+            x1 = np.where(has, np.minimum(x1, qx1 + rmax), x1)
+            y0 = np.where(has, np.maximum(y0, qy0 - rmax), y0)
+            y1 = np.where(has, np.minimum(y1, qy1 + rmax), y1)
         if snap.shape is not None:
             h, w = snap.shape
             x0, x1 = np.clip(x0, 0, w), np.clip(x1, 0, w)
@@ -3543,6 +3624,16 @@ class FeatureClusterer:
             np.minimum.at(cy0, kb, xyb[:, 1])
             np.maximum.at(cx1, kb, xyb[:, 0])
             np.maximum.at(cy1, kb, xyb[:, 1])
+            cores_retry = None
+            if self._ir and p.grow_core_q_ir > 0 and len(kb):
+                # the core is the members' inner quantiles (a thermal halo's features at the rim)
+                qx0, qx1 = _core_quantiles(kb, xyb[:, 0], n, p.grow_core_q_ir, cx0, cx1)
+                qy0, qy1 = _core_quantiles(kb, xyb[:, 1], n, p.grow_core_q_ir, cy0, cy1)
+                if p.grow_core_retry_ir:  # only where the full extent fails
+                    cores_retry = np.stack([qx0, qy0, qx1 - qx0, qy1 - qy0], axis=1)
+                    cores_retry[~np.isfinite(cores_retry).all(axis=1)] = np.nan
+                else:
+                    cx0, cx1, cy0, cy1 = qx0, qx1, qy0, qy1
             img = np.asarray(image)
             if img.dtype != np.uint8:
                 img = to_grey_u8(img)
@@ -3577,7 +3668,8 @@ class FeatureClusterer:
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
-                hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x)
+                hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
+                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
