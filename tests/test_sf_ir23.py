@@ -32,32 +32,41 @@ def report(params, ir, xy=HULL + RIM):
     return tr.boxes[0].tolist()
 
 
-BASE = dict(confirm_s=0.0)
+# the steps off (grow_core_q_ir 0.4 with grow_core_retry_ir is on by default since session 23); each
+# test names what it turns on
+BASE = dict(confirm_s=0.0, grow_core_q_ir=0.0, grow_core_retry_ir=False)
 
 
-def test_off_by_default():
-    assert ClusterParams().grow_core_q_ir == 0.0
+def P(**kw):
+    d = dict(BASE)
+    d.update(kw)
+    return ClusterParams(**d)
+
+
+def test_defaults():
+    d = ClusterParams()
+    assert (d.grow_core_q_ir, d.grow_core_retry_ir, d.grow_core_box_ir, d.top_halo_ir) == (0.4, True, False, 0.0)
 
 
 def test_rim_features_make_the_box_the_features_extent_without_the_step():
-    b = report(ClusterParams(**BASE), ir=True)
+    b = report(P(), ir=True)
     # the grown hull covers too little of the core (70..180): the padded features' extent is reported
     assert b[0] < 70 and b[0] + b[2] > 180
 
 
 def test_inner_quantile_core_grows_to_the_hull_on_ir():
-    p = ClusterParams(**BASE, grow_core_q_ir=0.2)
+    p = P(grow_core_q_ir=0.2)
     assert report(p, ir=True) == pytest.approx([100, 60, 50, 12])
 
 
 def test_eo_frames_are_untouched():
-    p = ClusterParams(**BASE, grow_core_q_ir=0.2)
-    assert report(p, ir=False) == report(ClusterParams(**BASE), ir=False)
+    p = P(grow_core_q_ir=0.2)
+    assert report(p, ir=False) == report(P(), ir=False)
 
 
 def test_without_rim_features_the_step_changes_nothing():
-    p = ClusterParams(**BASE, grow_core_q_ir=0.2)
-    assert report(p, ir=True, xy=HULL) == report(ClusterParams(**BASE), ir=True, xy=HULL) == \
+    p = P(grow_core_q_ir=0.2)
+    assert report(p, ir=True, xy=HULL) == report(P(), ir=True, xy=HULL) == \
         pytest.approx([100, 60, 50, 12])
 
 
@@ -106,9 +115,9 @@ def tower_report(params, halo, ir=True):
 
 
 def test_top_halo_keeps_the_halo_out_of_the_top_and_the_tower_in():
-    off = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25)
-    on = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25, top_halo_ir=1.0)
-    assert off.top_halo_ir == 0.0 == ClusterParams().top_halo_ir
+    off = P(top_frac=0.25, top_frac_ir=0.25)
+    on = P(top_frac=0.25, top_frac_ir=0.25, top_halo_ir=1.0)
+    assert off.top_halo_ir == 0.0
     # without the step the halo above the hull is taken for a superstructure
     b = tower_report(off, halo=True)
     assert b[1] < 58
@@ -118,11 +127,10 @@ def test_top_halo_keeps_the_halo_out_of_the_top_and_the_tower_in():
 
 
 def test_retry_grows_with_the_inner_core_only_where_the_full_extent_fails():
-    retry = ClusterParams(**BASE, grow_core_q_ir=0.2, grow_core_retry_ir=True)
-    assert ClusterParams().grow_core_retry_ir is False
+    retry = P(grow_core_q_ir=0.2, grow_core_retry_ir=True)
     assert report(retry, ir=True) == pytest.approx([100, 60, 50, 12])  # the full extent failed: the retry
-    assert report(retry, ir=True, xy=HULL) == report(ClusterParams(**BASE), ir=True, xy=HULL)
-    assert report(retry, ir=False) == report(ClusterParams(**BASE), ir=False)  # EO: off
+    assert report(retry, ir=True, xy=HULL) == report(P(), ir=True, xy=HULL)
+    assert report(retry, ir=False) == report(P(), ir=False)  # EO: off
     # the tower above the hull: the full extent grows, the retry is not used (the tower stays in)
-    on = ClusterParams(**BASE, top_frac=0.25, top_frac_ir=0.25, grow_core_q_ir=0.4, grow_core_retry_ir=True)
+    on = P(top_frac=0.25, top_frac_ir=0.25, grow_core_q_ir=0.4, grow_core_retry_ir=True)
     assert tower_report(on, halo=False) == pytest.approx([100, 44, 50, 28])

@@ -14,7 +14,8 @@ EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=30.0, coast_s=0.0,
            relink_px=200.0, relink_iou_tie=False, relink_view_px=0.0, relink_min_area=0.0,
            relink_height_zoom_min=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
-           hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0)
+           hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0,
+           relink_side_h_ratio=0.0, relink_undo_hand_over=False)  # session 23's steps off (on by default)
 SMALL = [[100, 120], [110, 124]]  # a small boat (box about 8 px tall)
 TALL = [[100, 40], [120, 64]]  # a tall boat (box about 28 px tall), above it
 NEW_SMALL = [[140, 60], [150, 64]]  # a small cluster back later, on the tall boat's row (nearer its box)
@@ -53,8 +54,9 @@ def _run(new_pts, edge=True, zoom=1.0, **kw):
     return int(tr2.ids[0]), s_id, t_id, c
 
 
-def test_default_is_off_and_off_takes_the_nearer_box():
-    assert ClusterParams().relink_side_h_ratio == 0.0
+def test_defaults_and_off_takes_the_nearer_box():
+    d = ClusterParams()  # on by default since session 23
+    assert (d.relink_side_h_ratio, d.relink_side_h_n, d.relink_undo_hand_over) == (3.0, 5, True)
     assert _box_h(TALL) > 3 * _box_h(NEW_SMALL)
     got, s_id, t_id, c = _run(NEW_SMALL)
     assert got == t_id  # the tall boat's carried box is the nearer: the small cluster takes its identity
@@ -119,7 +121,6 @@ def _undo_run(**kw):
 
 
 def test_undo_off_is_the_old_behaviour():
-    assert ClusterParams().relink_undo_hand_over is False
     got, a_id, lost_box, c = _undo_run()
     assert got != a_id  # the new cluster keeps its own identity
     assert a_id in c._lost and np.allclose(c._lost[a_id][1], lost_box)  # lost again where it was before

@@ -2316,6 +2316,9 @@ class ClusterParams:
     and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
     rib's identity went to the fishing boat's part).
 
+    Session 23 round 2: on by default since session 23 (the lead's decision U2): helper H4's
+    ``relink_side_h_ratio`` 3 with ``relink_undo_hand_over``, and helper H6's ``grow_core_q_ir`` 0.4
+    with ``grow_core_retry_ir`` (the off values below are the fields' old defaults).
     Session 23 round 2 (helper H4, ``pan``'s switches at the new defaults): ``relink_side_h_ratio``
     (0: off): an identity lost with its last box at the image's left or right edge (its last box,
     clipped by the edge, tells nothing of its size) is relinked only to a cluster whose height lies
@@ -2492,13 +2495,13 @@ class ClusterParams:
     split_follow_box: float = 0.5
     coast_outside_wait: bool = False
     coast_grow_up: float = 0.0
-    relink_side_h_ratio: float = 0.0
+    relink_side_h_ratio: float = 3.0
     relink_side_h_n: int = 5
-    relink_undo_hand_over: bool = False
-    grow_core_q_ir: float = 0.0
+    relink_undo_hand_over: bool = True
+    grow_core_q_ir: float = 0.4
     grow_core_box_ir: bool = False
     top_halo_ir: float = 0.0
-    grow_core_retry_ir: bool = False
+    grow_core_retry_ir: bool = True
 
 
 class FeatureClusterer:
