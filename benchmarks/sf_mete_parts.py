@@ -37,6 +37,9 @@ Example (the 12 tuning sequences, one JSON line each)::
       .venv/bin/python benchmarks/sf_mete_parts.py $s $k --cache /tmp/s18h2/cache --json parts.jsonl
     done; done
     .venv/bin/python benchmarks/sf_mete_parts.py --summary parts.jsonl
+
+``--params '{"field": value}'`` (session 23) replays with those ``ClusterParams`` fields (the cached
+snapshots are the default extractor's, so no ``"ext"``). The evaluation seeds 0, 3 and 4 are refused.
 """
 
 from __future__ import annotations
@@ -114,7 +117,19 @@ def main(argv=None) -> int:
     ap.add_argument("seed", type=int)
     ap.add_argument("--cache", default=None, metavar="DIR", help="sf_diagnose.py's snapshot cache (same keys)")
     ap.add_argument("--json", default=None, metavar="FILE", help="append one JSON line with the parts")
+    ap.add_argument("--params", default="{}", help="ClusterParams fields as a JSON object (default {}: the defaults; "
+                                                   "no \"ext\": the snapshots are the default extractor's)")
     args = ap.parse_args(argv)
+    from sf_diagnose import EVAL_SEEDS, parse_params  # this folder is on the path as a script
+
+    if args.seed in EVAL_SEEDS:
+        print(f"sf_mete_parts.py: seed {args.seed} is an evaluation seed", file=sys.stderr)
+        return 2
+    kw = parse_params(args.params, "sf_mete_parts.py")
+    if kw is None or "ext" in kw:
+        if kw is not None:
+            print("sf_mete_parts.py: --params takes ClusterParams fields only (no \"ext\")", file=sys.stderr)
+        return 2
     import cv2
 
     from seawatch.detect.features import StableFeatureExtractor
@@ -125,15 +140,15 @@ def main(argv=None) -> int:
 
     cv2.setNumThreads(1)
     scn = make_scenario(args.scenario, seed=args.seed)
-    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), ClusterParams(), camera=scn.camera,
+    trk = StableFeatureTracker(StableFeatureExtractor(nominal_fps=scn.fps), ClusterParams(**kw), camera=scn.camera,
                                horizon="camera")
     recorded, record, cache_path = None, None, None
-    if args.cache:  # sf_diagnose.py's key with no --params and no --duration-s
+    if args.cache:  # sf_diagnose.py's key with no extractor --params and no --duration-s
         cache_path, recorded = snapshot_cache(args.cache, args.scenario, args.seed, None, {}, "camera")
         if recorded is None:
             record = []
             print(f"no snapshots under this key yet: recording {cache_path}")
-    floor = ClusterParams().min_speed_px_s
+    floor = trk.clusterer.params.min_speed_px_s
     gt, pred, slow = {}, {}, {}
     for f, g in scn.iter_frames():
         vis = g.visible > 0
@@ -276,7 +291,7 @@ def main(argv=None) -> int:
           f"(of {out['late']:.4f})")
     if args.json:
         with open(args.json, "a") as fh:
-            fh.write(json.dumps(dict(scenario=args.scenario, seed=args.seed, frames=nf, fps=scn.fps,
+            fh.write(json.dumps(dict(scenario=args.scenario, seed=args.seed, params=kw, frames=nf, fps=scn.fps,
                                      METE=e["METE"], accuracy=e["METE_accuracy"],
                                      cardinality=e["METE_cardinality"], oracle=oracle / nf, parts=out,
                                      parts_slow=out_slow, clutter_subst=clutter_subst / nf,
