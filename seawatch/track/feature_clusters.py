@@ -2221,6 +2221,17 @@ class ClusterParams:
     whole boat, which the size check refused (``pan`` 55, the motorboat: a 16x5 box on a 39x10 hull);
     not when that grown box covers more than a quarter of one of this frame's reports (another boat).
 
+    Session 24 (helper H7, faint boats lost through the zoom on ``pan``): ``coast_edge`` (0: off): a
+    coast whose expected box's centre lies left or right of the image (its rows in it) is not ended
+    but looked at on the image's edge on its side (:meth:`FeatureClusterer._coast_edge_look`), and so
+    is a coast whose look failed at a box touching the image's left or right side: grown from the half
+    of the expected box nearest the edge, on a copy of those rows with the same rows' water put in
+    front of the edge (the grow's background strip at the edge would lie on the boat); a grown box
+    that was found, stands out, touches the edge, lies below the horizon band, is at most this many
+    times the expected box's area and covers no more than a quarter of a report now is reported
+    (outcome "edge") and followed.  The faint motorboat that the zoom carries across the left edge
+    and back (``pan`` 55: the expected box 388 px out, its rows right) keeps its identity through.
+
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
     waterline) lies more than this many times the taller of the two boxes' heights above or below the
@@ -2502,6 +2513,7 @@ class ClusterParams:
     grow_core_box_ir: bool = False
     top_halo_ir: float = 0.0
     grow_core_retry_ir: bool = True
+    coast_edge: float = 0.0
 
 
 class FeatureClusterer:
@@ -3913,6 +3925,16 @@ class FeatureClusterer:
                     tl, _, v = self._lost[k]
                     self._lost[k] = (tl, grown[j].copy(), v)
                     self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
+        edge = wait = np.zeros(len(ids), bool)  # coast_edge: outside to the left or right, its rows in the image
+        if p.coast_edge > 0 and snap.shape is not None:
+            hh, ww = snap.shape
+            edge = (why == "outside") & ((cx < 0) | (cx >= ww)) & (cy >= 0) & (cy < hh)
+            wait = edge.copy()  # outside: waits for the boat (not ended while it is not seen)
+            # a look that failed at a box on the image's side (the boat straddles it): looked at the edge
+            edge |= (np.isin(why, ("not found", "contrast", "size")) & ((lbs[:, 0] < 1.0)
+                                                                         | (lbs[:, 0] + lbs[:, 2] > ww - 1.0)))
+            if p.coast_check and image is not None and edge.any():
+                self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
         low = None
         if p.coast_retry_s > 0 and p.coast_search_below_px > 0 and self._horizon is not None and len(ids):
@@ -3920,7 +3942,7 @@ class FeatureClusterer:
         for j in np.flatnonzero(~ok):  # a coast that failed a check has ended: no report back and forth
             k = int(ids[j])
             tl = self._lost[k][0]
-            if p.coast_outside_wait and why[j] == "outside":
+            if (p.coast_outside_wait and why[j] == "outside") or (wait[j] and why[j] == "outside"):
                 # session 23 (H5): a boat the pan took out of the view is looked at again when its
                 # expected box comes back into the image (within coast_s of its loss)
                 self._coast_fail.pop(k, None)
@@ -3946,6 +3968,86 @@ class FeatureClusterer:
         if not ok.any():
             return empty
         return ids[ok], lbs[ok], vel[ok]
+
+    def _coast_edge_look(self, image, shape, ids, lbs, ok, why, edge, reported):
+        """``params.coast_edge`` (session 24, helper H7): each coast in ``edge`` (its expected box's
+        centre lies left or right of the image, its rows in it: a boat the pan or the zoom carried
+        across the image's side) is looked at on the image's edge on its side: grown
+        (:func:`grow_boxes`) from a core the half of the expected box (moved to that edge) nearest
+        the edge, in the box's middle rows.  A grown box that was found, stands out (contrast at
+        least ``min_contrast``), touches that edge (the boat straddles it), lies below the horizon
+        band (``coast_search_below_px``), is at most ``coast_edge`` times the expected box's area and
+        covers no more than a quarter of one of this frame's ``reported`` boxes (another boat) is
+        reported (outcome "edge") and, with ``coast_follow``, followed from then on.  Updates
+        ``ok``, ``why`` and ``lbs`` in place; a coast that is not seen waits (is not ended)."""
+        p = self.params
+        hh, ww = shape
+        img = np.asarray(image)
+        if img.dtype != np.uint8:
+            img = to_grey_u8(img)
+        sel = np.flatnonzero(edge)
+        b = lbs[sel].copy()
+        left = b[:, 0] + 0.5 * b[:, 2] < 0.5 * ww
+        w = np.minimum(b[:, 2], 0.5 * ww)
+        e = np.stack([np.where(left, 0.0, ww - w), b[:, 1], w, b[:, 3]], axis=1)
+        cores = np.stack([np.where(left, 0.0, ww - 0.5 * w), e[:, 1] + 0.25 * e[:, 3], 0.5 * w, 0.5 * e[:, 3]],
+                         axis=1)
+        grown, contrast, found = np.zeros((len(sel), 4)), np.zeros(len(sel)), np.zeros(len(sel), bool)
+        for j in range(len(sel)):
+            grown[j], contrast[j], found[j] = self._edge_grow(img, e[j], bool(left[j]))
+        touch = np.where(left, grown[:, 0] <= 1.0, grown[:, 0] + grown[:, 2] >= ww - 1.0)
+        ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
+        good = found & (contrast >= p.min_contrast) & touch & (ratio <= p.coast_edge)
+        if p.coast_search_below_px > 0 and self._horizon is not None and good.any():
+            good &= self._below_horizon(grown)
+        if len(reported) and good.any():
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+            good &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+        for j in np.flatnonzero(good):
+            i = sel[j]
+            ok[i] = True
+            why[i] = "edge"
+            lbs[i] = grown[j]
+            if p.coast_follow:
+                k = int(ids[i])
+                tl, _, v = self._lost[k]
+                self._lost[k] = (tl, grown[j].copy(), v)
+                self._lost_dir.pop(k, None)
+
+    def _edge_grow(self, img, e, left, pad=48):
+        """``coast_edge``'s grow of the box ``e`` (``x, y, w, h``, on the image's left edge, or its
+        right one when not ``left``) from the core the half of it nearest the edge.  The grow takes
+        each row's background from the window's side strips; at the image's edge one of them lies on
+        the boat, so the look is made on a copy of the rows around the box with ``pad`` columns of
+        the same rows' water (from beyond the window, away from the edge) put in front of the edge.
+        Returns ``(box, contrast, found)`` in the image's pixels, the box cut at the edge."""
+        p = self.params
+        hh, ww = img.shape[:2]
+        x, y, w, h = (float(v) for v in e)
+        y0, y1 = int(max(0, np.floor(y - pad))), int(min(hh, np.ceil(y + h + pad)))
+        s0 = int(np.ceil(w + pad))  # the water copied in front of the edge: beyond the grow's window
+        cw = int(min(ww, max(s0 + pad, w + 3 * pad + p.grow_wide_px)))
+        if s0 + pad > ww or y1 - y0 < 3:
+            return np.array([x, y, w, h]), 0.0, False
+        crop = img[y0:y1, :cw] if left else img[y0:y1, ww - cw:][:, ::-1]
+        padded = np.ascontiguousarray(np.concatenate([crop[:, s0:s0 + pad], crop], axis=1))
+        bx = np.array([[pad, y - y0, w, h]])
+        core = np.array([[pad, y - y0 + 0.25 * h, 0.5 * w, 0.5 * h]])
+        frac = 0.05 * hh * ww / float(padded.shape[0] * padded.shape[1])  # grow_boxes' large box, as in the image
+        g, ct, fd = grow_boxes(padded, bx, core, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
+                               return_found=True, wide_grow_px=p.grow_wide_px, waterline_frac=p.waterline_frac,
+                               top_frac=self._top_frac, max_area_frac=frac)
+        gx0, gy, gw, gh = (float(v) for v in g[0])
+        gx1 = min(gx0 + gw - pad, float(cw))
+        gx0 = max(gx0 - pad, 0.0)
+        out = np.array([gx0, gy + y0, max(gx1 - gx0, 0.0), gh])
+        if not left:
+            out[0] = ww - gx1
+        return out, float(ct[0]), bool(fd[0]) and gx1 > gx0
 
     def _below_horizon(self, boxes):
         """Whether each box's bottom lies more than ``coast_search_below_px`` (times the zoom) below

@@ -1,0 +1,120 @@
+"""Session 24 (issue #8, helper H7): a coast whose expected box lies left or right of the image is
+looked at on the image's edge (``coast_edge``): the boat that straddles the edge (the pan or the zoom
+carried it across) is reported with its identity, the part of it in view."""
+
+import numpy as np
+
+from _feature_snap import snap
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+from seawatch.types import TrackState
+
+SHAPE = (160, 240)
+HULL = (100, 60, 140, 70)  # x0, y0, x1, y1 (exclusive) of the dark hull, 40 x 10 px
+
+
+def sea(seed, dx=0, boat=True):
+    """Grey sea (120, noise 2) with the dark hull (60) moved ``dx`` px (cut by the image's edges)."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, SHAPE)
+    if boat:
+        x0, y0, x1, y1 = HULL
+        a, b = max(x0 + dx, 0), min(x1 + dx, SHAPE[1])
+        if a < b:
+            img[y0:y1, a:b] = 60.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def shift(dx):
+    """A camera homography that moves the image content ``dx`` px along x."""
+    h = np.eye(3)
+    h[0, 2] = dx
+    return h
+
+
+def run(moves, boats=None, **kw):
+    """The hull seen with its features for 6 frames; then its features are gone and the camera moves
+    the content by each of ``moves`` (px along x, one per frame); ``boats`` (one per frame, default
+    all True): whether the hull is drawn.  Returns the clusterer, the hull's identity and the tracks
+    of each frame after the loss."""
+    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0)
+    base.update(kw)
+    c = FeatureClusterer(ClusterParams(**base))
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k))
+    assert len(tr) == 1
+    ident = int(tr.ids[0])
+    out = []
+    none = (np.zeros((0, 2)), np.zeros((0, 2)))
+    dx = 0.0
+    for j, m in enumerate(moves):
+        dx += m
+        fi = 6 + j
+        boat = True if boats is None else boats[j]
+        out.append(c.update(snap(*none, 0.1 * fi, fi, [], h=shift(m)), sea(fi, dx=int(dx), boat=boat))[1])
+    return c, ident, out
+
+
+def test_off_by_default_the_coast_ends_outside():
+    assert ClusterParams().coast_edge == 0.0
+    # the pan carries the hull to x -25..15: its expected box's centre lies left of the image
+    c, _, out = run([-125.0, -2.0])
+    assert all(len(tr) == 0 for tr in out)
+    assert [e[3] for e in c.coast_log] == ["outside"]  # ended at once
+
+
+def test_the_part_in_view_at_the_left_edge_is_reported_with_the_identity():
+    c, ident, out = run([-125.0, -2.0], coast_edge=6.0)
+    for tr, vis in zip(out, (15, 13)):
+        assert tr.ids.tolist() == [ident]
+        assert tr.states.tolist() == [int(TrackState.COASTING)]
+        x, y, w, h = tr.boxes[0]
+        assert x == 0 and abs(w - vis) <= 1.5 and abs(y - 60) <= 1 and abs(y + h - 70) <= 1
+    assert [e[3] for e in c.coast_log] == ["edge", "edge"]
+
+
+def test_the_right_edge_too():
+    # the pan carries the hull to x 225..265 (15 px in view at the right edge)
+    c, ident, out = run([125.0], coast_edge=6.0)
+    tr = out[0]
+    assert tr.ids.tolist() == [ident]
+    x, y, w, h = tr.boxes[0]
+    assert abs(x - 225) <= 1.5 and abs(x + w - SHAPE[1]) <= 0.5 and abs(y - 60) <= 1 and abs(y + h - 70) <= 1
+
+
+def test_open_water_at_the_edge_is_not_reported_and_the_coast_waits_for_the_boat():
+    # out of view for three frames (open water at the edge), then the hull comes back 10 px into view
+    c, ident, out = run([-150.0, 0.0, 0.0, 20.0], boats=[False, False, False, True], coast_edge=6.0)
+    assert all(len(tr) == 0 for tr in out[:3])
+    tr = out[3]
+    assert tr.ids.tolist() == [ident]
+    x, y, w, h = tr.boxes[0]
+    assert x == 0 and abs(w - 10) <= 1.5
+    assert [e[3] for e in c.coast_log] == ["outside"] * 3 + ["edge"]
+
+
+def test_bounded_by_coast_s():
+    # the hull comes back 0.3 s after the loss: beyond coast_s 0.25 it is not looked at
+    c, _, out = run([-150.0, 0.0, 0.0, 20.0], boats=[False, False, False, True], coast_edge=6.0, coast_s=0.25)
+    assert all(len(tr) == 0 for tr in out)
+    assert "edge" not in [e[3] for e in c.coast_log]
+
+
+def test_bounded_by_the_area_ratio():
+    # the whole 40 x 10 hull's part in view (15 x 10) is 0.375 of the expected box: a bound of 0.3
+    # (a grown box at most 0.3 times the expected area) refuses it
+    c, _, out = run([-125.0], coast_edge=0.3)
+    assert len(out[0]) == 0
+
+
+def test_the_edge_look_cuts_the_box_at_the_edge_on_either_side():
+    # 15 px of the hull in view at the left edge; the mirrored image: at the right edge
+    c = FeatureClusterer(ClusterParams(coast_edge=6.0))
+    img = sea(3, dx=-125)
+    g, ct, fd = c._edge_grow(img, np.array([0.0, 60.0, 40.0, 10.0]), True)
+    assert fd and ct >= 4.0 and np.allclose(g, [0, 60, 15, 10], atol=1)
+    g, ct, fd = c._edge_grow(np.ascontiguousarray(img[:, ::-1]), np.array([200.0, 60.0, 40.0, 10.0]), False)
+    assert fd and ct >= 4.0 and np.allclose(g, [225, 60, 15, 10], atol=1)
+    # open water: nothing found
+    g, ct, fd = c._edge_grow(sea(3, boat=False), np.array([0.0, 60.0, 40.0, 10.0]), True)
+    assert not (fd and ct >= 4.0)
