@@ -118,3 +118,13 @@ def test_the_edge_look_cuts_the_box_at_the_edge_on_either_side():
     # open water: nothing found
     g, ct, fd = c._edge_grow(sea(3, boat=False), np.array([0.0, 60.0, 40.0, 10.0]), True)
     assert not (fd and ct >= 4.0)
+
+
+def test_coast_edge_s_bounds_the_wait_at_the_edge():
+    assert ClusterParams().coast_edge_s == 0.0
+    # the hull comes back 0.3 s after the loss: a bound of 0.25 s ends the wait (no look then), 0.35 s does not
+    c, _, out = run([-150.0, 0.0, 0.0, 20.0], boats=[False, False, False, True], coast_edge=6.0, coast_edge_s=0.25)
+    assert all(len(tr) == 0 for tr in out)
+    assert "edge" not in [e[3] for e in c.coast_log]
+    c, ident, out = run([-150.0, 0.0, 0.0, 20.0], boats=[False, False, False, True], coast_edge=6.0, coast_edge_s=0.35)
+    assert out[3].ids.tolist() == [ident]

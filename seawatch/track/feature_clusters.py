@@ -2231,6 +2231,9 @@ class ClusterParams:
     times the expected box's area and covers no more than a quarter of a report now is reported
     (outcome "edge") and followed.  The faint motorboat that the zoom carries across the left edge
     and back (``pan`` 55: the expected box 388 px out, its rows right) keeps its identity through.
+    ``coast_edge_s`` (0: within ``coast_s``): the edge look (and the wait outside) only within this
+    many seconds of the loss; not run on the tuning sequences (``pan`` 5: the tug's identity, lost at
+    the left edge, waited 13 s there and took the sailboat that came in at the same edge).
 
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
@@ -2514,6 +2517,7 @@ class ClusterParams:
     top_halo_ir: float = 0.0
     grow_core_retry_ir: bool = True
     coast_edge: float = 0.0
+    coast_edge_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -3933,6 +3937,10 @@ class FeatureClusterer:
             # a look that failed at a box on the image's side (the boat straddles it): looked at the edge
             edge |= (np.isin(why, ("not found", "contrast", "size")) & ((lbs[:, 0] < 1.0)
                                                                          | (lbs[:, 0] + lbs[:, 2] > ww - 1.0)))
+            if p.coast_edge_s > 0:  # only this long after the loss (a boat back later may be another)
+                tls = np.array([self._lost[int(k)][0] for k in ids], np.float64)
+                edge &= t - tls <= p.coast_edge_s + 1e-9
+                wait &= edge
             if p.coast_check and image is not None and edge.any():
                 self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
