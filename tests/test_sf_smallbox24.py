@@ -90,3 +90,52 @@ def test_the_clusterer_uses_its_field():
     # and without max_aspect it is reported one pixel tall
     on = cluster_reports(top_min_px=2.0, max_aspect=0.0)
     assert len(on) == 1 and on[0][3] == 1
+
+
+# ``ClusterParams.box_wake_below_px``: a small moving cluster's members lying below its front member
+# (a wake's foam behind a small boat) leave its box.
+
+HULL = [[120.0, 64.0], [126.0, 63.0]]
+
+
+def wake_box(foam, vel, ir=False, **kw):
+    """The report box (no image: the box members' extent, padded by 2 px) of one cluster made of the
+    hull's two features and ``foam``, all moving at ``vel``."""
+    c = FeatureClusterer(ClusterParams(confirm_s=0.0, **kw))
+    xy = HULL + [foam]
+    _, tr = c.update(snap(xy, [vel] * 3, 0.0, 0), ir=ir)
+    assert len(tr) == 1
+    return [float(v) for v in tr.boxes[0]]
+
+
+def test_wake_rule_is_off_by_default():
+    p = ClusterParams()
+    assert p.box_wake_below_px == 0.0 and p.box_wake_below_px_ir == 0.0
+    assert wake_box([104.0, 72.0], [20.0, 0.0]) == [102.0, 61.0, 26.0, 13.0]
+
+
+def test_foam_below_and_behind_a_moving_boat_leaves_the_box():
+    on = wake_box([104.0, 72.0], [20.0, 0.0], box_wake_below_px=5.0)
+    assert on == [118.0, 61.0, 10.0, 5.0]  # the hull's two features alone
+    # moving left: the front member is the leftmost; foam behind it (right) and below leaves too
+    on = wake_box([142.0, 72.0], [-20.0, 0.0], box_wake_below_px=5.0)
+    assert on == [118.0, 61.0, 10.0, 5.0]
+
+
+def test_wake_rule_keeps_members_within_reach_and_still_clusters_and_tall_ones():
+    # 4 px below the front one: not more than 5
+    assert wake_box([104.0, 67.0], [20.0, 0.0], box_wake_below_px=5.0) == [102.0, 61.0, 26.0, 8.0]
+    # a cluster not moving across the image (a still boat: no wake behind it)
+    assert wake_box([104.0, 72.0], [2.0, 0.0], box_wake_below_px=5.0) == [102.0, 61.0, 26.0, 13.0]
+    # members spanning more than box_wake_max_h_px (20) vertically: a large ship's hull below its bow
+    assert wake_box([104.0, 88.0], [20.0, 0.0], box_wake_below_px=5.0) == [102.0, 61.0, 26.0, 29.0]
+    assert wake_box([104.0, 88.0], [20.0, 0.0], box_wake_below_px=5.0, box_wake_max_h_px=0.0) == \
+        [118.0, 61.0, 10.0, 5.0]
+
+
+def test_wake_rule_on_infrared_frames_only_with_its_own_value():
+    # default box_wake_below_px_ir 0: off on IR
+    assert wake_box([104.0, 72.0], [20.0, 0.0], ir=True, box_wake_below_px=5.0) == [102.0, 61.0, 26.0, 13.0]
+    # None: the EO value
+    assert wake_box([104.0, 72.0], [20.0, 0.0], ir=True, box_wake_below_px=5.0, box_wake_below_px_ir=None) == \
+        [118.0, 61.0, 10.0, 5.0]

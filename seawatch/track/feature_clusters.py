@@ -2364,7 +2364,14 @@ class ClusterParams:
     ``top_min_px``; the clusters' growing, not the coast's).  On sim ``pan`` 2 (13.6 s) a cluster on
     the motorboat's wake, a line 15 x 1 px at the waterline that ``max_aspect`` drops, was raised
     by the top extension at 0.2 into a 15 x 4 box, reported, and took the lost motorboat's
-    identity, which ended its coast (the boat then unreported for 0.3-2 s at a time)."""
+    identity, which ended its coast (the boat then unreported for 0.3-2 s at a time).
+    ``box_wake_below_px`` (0: off) with ``box_wake_max_h_px`` (20; 0: any): in a small cluster moving
+    across the image, the box members more than this many pixels (times the zoom) below its front
+    member (the one farthest in the direction of motion) leave the box (a small boat's wake foam;
+    see :meth:`FeatureClusterer._wake_below_members`); ``box_wake_top`` (False): below the topmost
+    box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
+    frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
+    rule on IR lost METE on the tuning ``ir`` sequences)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2411,6 +2418,10 @@ class ClusterParams:
     top_frac: float = 0.2
     top_frac_ir: float | None = 0.35
     top_min_px: float = 0.0
+    box_wake_below_px: float = 0.0
+    box_wake_max_h_px: float = 20.0
+    box_wake_top: bool = False
+    box_wake_below_px_ir: float | None = 0.0
     max_aspect: float = 12.0
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
@@ -2799,6 +2810,54 @@ class FeatureClusterer:
             if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
+
+    def _wake_below_members(self, k, xy, n, inb, fv, below_px):
+        """The box members (``inb``, None: all) without the wake's foam (not in the paper; session 24,
+        ``params.box_wake_below_px``, on infrared frames ``box_wake_below_px_ir``; ``below_px`` the
+        one of this frame): in a cluster whose box members move across the image (their
+        mean velocity relative to the scene, ``fv`` per member, at least ``params.wake_min_px_s``
+        along x), the front member is the one farthest in the direction of motion; a member lying
+        more than ``below_px`` (times the zoom) below the front one leaves the box.  Only
+        With ``params.box_wake_top`` the reference is the topmost box member instead (the foam
+        may lie ahead of the hull, a bow wave, or level with it).  Only
+        in clusters whose box members span at most ``params.box_wake_max_h_px`` (times the zoom;
+        0: any) vertically (a small boat: a ship's hull features lie far below its bow).  A small
+        boat's foam trails behind it on the water, below the hull's features (sim ``pan``'s rib:
+        foam members 5-7 px below the hull's that move with it; boxes 2-3 times the boat's area)."""
+        p = self.params
+        sel = np.ones(len(k), bool) if inb is None else np.asarray(inb, bool).copy()
+        idx = np.flatnonzero(sel)
+        if len(idx) < 2:
+            return sel
+        kb, xb, yb = k[idx], xy[idx, 0], xy[idx, 1]
+        v = fv[idx, 0]
+        okv = np.isfinite(v)
+        vx = np.zeros(n)
+        np.add.at(vx, kb[okv], v[okv])
+        cnt = np.bincount(kb[okv], minlength=n)
+        vx /= np.maximum(cnt, 1)
+        moving = (cnt > 0) & (np.abs(vx) >= p.wake_min_px_s)
+        if not moving[kb].any():
+            return sel
+        z = self._zoom
+        ylo = np.full(n, np.inf)
+        yhi = np.full(n, -np.inf)
+        np.minimum.at(ylo, kb, yb)
+        np.maximum.at(yhi, kb, yb)
+        small = (yhi - ylo <= p.box_wake_max_h_px * z) if p.box_wake_max_h_px > 0 else np.ones(n, bool)
+        if p.box_wake_top:
+            fy = ylo  # the topmost member
+        else:
+            # each cluster's front member: the largest position along its motion
+            proj = np.sign(vx)[kb] * xb
+            o = np.lexsort((-proj, kb))
+            first = np.ones(len(o), bool)
+            first[1:] = kb[o][1:] != kb[o][:-1]
+            fy = np.full(n, np.nan)
+            fy[kb[o][first]] = yb[o][first]
+        out = moving[kb] & small[kb] & (yb > fy[kb] + below_px * z)
+        sel[idx[out]] = False
+        return sel
 
     def _box_anchor(self, snap, cids, k, xy):
         """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
@@ -3603,6 +3662,10 @@ class FeatureClusterer:
             self._disp_anchor = anchor if p.box_dv_px_s > 0 else None
             keep = self._disp_members(snap, m, k, n, inb)
             inb = keep if inb is None else inb & keep
+        wake_below = p.box_wake_below_px_ir if (self._ir and p.box_wake_below_px_ir is not None) else p.box_wake_below_px
+        if wake_below > 0:
+            # session 24: the members below and behind a small moving cluster's front one (its wake's foam)
+            inb = self._wake_below_members(k, xy, n, inb, member_velocity(), wake_below)
         if inb is not None:
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
