@@ -13,11 +13,12 @@ from seawatch.track import feature_clusters as F
 def _reference_grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
                         waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0,
                         cut_core_undo=False, wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0,
-                        top_halo=0.0):
+                        top_halo=0.0, top_min_px=0.0):
     """``_grow_one`` as it was before session 18 (np.percentile, cv2.morphologyEx,
     cv2.connectedComponentsWithStats, np.unique / setdiff1d / isin); it has no ``wake_thick``
     (session 19), no ``sign_frac`` (session 20), no ``cover_wide`` (session 21) and no ``sign_side``
-    (session 22; it acts only with ``sign_frac``) and no ``top_halo`` (session 23), all off by default."""
+    (session 22; it acts only with ``sign_frac``) and no ``top_halo`` (session 23); ``top_min_px``
+    (session 24) as there, all off by default."""
     assert not wake_thick and sign_frac == 0 and not cover_wide and top_halo == 0
     hh, ww = img.shape[:2]
     x, y, w, h = box
@@ -69,7 +70,7 @@ def _reference_grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contr
         nx0, ny0, nx1, ny1 = _reference_trim_object(dev, (lab, hit), (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                             waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
-    if top_frac > 0 and top_frac < peak_frac:
+    if top_frac > 0 and top_frac < peak_frac and ny1 - ny0 >= top_min_px:
         ny0 = y0 + _reference_extend_top(dev, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                          max(k_sigma * sigma, min_contrast, top_frac * peak), x0 > 0, x1 < ww)
     return (nx0, ny0, nx1 - nx0, ny1 - ny0), contrast, False
@@ -222,7 +223,8 @@ def test_grow_one_equals_the_reference_on_random_scenes():
             box = core + [-2, -2, 4, 4]
             kw = dict(waterline_frac=float(rng.choice([0.0, 0.5])), wake_frac=float(rng.choice([0.0, 0.3])),
                       trail=int(rng.choice([-1, 0, 1])), top_frac=float(rng.choice([0.0, 0.35])),
-                      cut_core_frac=float(rng.choice([0.0, 0.3])), cut_core_undo=bool(rng.random() < 0.5))
+                      cut_core_frac=float(rng.choice([0.0, 0.3])), cut_core_undo=bool(rng.random() < 0.5),
+                      top_min_px=float(rng.choice([0.0, 0.0, 3.0])))
             g = float(rng.choice([6.0, 20.0, 40.0, 120.0]))
             args = (img, box, core, g, min(g, 40.0), bool(rng.random() < 0.05), 3, 3.0, float(rng.choice([4.0, 10.0])),
                     float(rng.choice([0.5, 0.9])), 0.5)

@@ -1158,7 +1158,7 @@ def grow_boxes(
     return_found: bool = False, sign_frac: float = 0.0, sign_max_px: float = 0.0,
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
-    top_halo: float = 0.0, cores_retry: np.ndarray | None = None,
+    top_halo: float = 0.0, cores_retry: np.ndarray | None = None, top_min_px: float = 0.0,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1279,6 +1279,13 @@ def grow_boxes(
         thermal halo lies around it, as far above the hull as beside it; its own superstructure
         stands out more than the halo beside the hull.
 
+    top_min_px : float
+        The top extension (``top_frac``) only for an object at least this many pixels tall as found
+        (after the cuts; 0: all; not in the paper; session 24): a line one or two pixels tall at the
+        waterline (a small boat's wake behind it) has no superstructure; raised into the sea texture
+        above it, it was no longer a line for ``ClusterParams.max_aspect`` and was reported (and
+        took the boat's identity).
+
     cores_retry : (N, 4) float, optional
         A second core per cluster (NaN: none; not in the paper; session 23): where every window
         above failed, the first window is tried once more with this core (the members' inner
@@ -1317,7 +1324,7 @@ def grow_boxes(
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide, side, top_halo)
+                                            sf, cover_wide, side, top_halo, top_min_px)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1325,7 +1332,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, False, side, top_halo)
+                                   sf, False, side, top_halo, top_min_px)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1339,7 +1346,7 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf, False, side, top_halo)
+                                       cut_core_undo, wake_thick, sf, False, side, top_halo, top_min_px)
                 if box is not None:
                     contrast[n] = c3
         if box is None and cores_retry is not None and np.all(np.isfinite(cores_retry[n])) and not large:
@@ -1347,7 +1354,7 @@ def grow_boxes(
             box, c4, _ = _grow_one(img, out[n], cores_retry[n], gx, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, cover_wide, side, top_halo)
+                                   sf, cover_wide, side, top_halo, top_min_px)
             if box is not None:
                 contrast[n] = c4
         if box is not None:
@@ -1389,7 +1396,7 @@ def _inside_frac(a, b, x_only=False) -> float:
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
-              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0):
+              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1448,7 +1455,7 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
                                           waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo,
                                           wake_thick)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
-    if top_frac > 0 and top_frac < peak_frac:
+    if top_frac > 0 and top_frac < peak_frac and ny1 - ny0 >= top_min_px:
         tthr = max(k_sigma * sigma, min_contrast, top_frac * peak)
         if top_halo > 0:  # not through a thermal halo: as bright as the halo beside the object
             ox0, ox1, oy0, oy1 = nx0 - x0, nx1 - x0, ny0 - y0, ny1 - y0
@@ -2364,7 +2371,21 @@ class ClusterParams:
     ``grow_core_q_ir``, the box before the growing (reported where the growing fails) is those
     quantiles too, padded by the members' largest radius (tried, not better).  ``top_halo_ir`` (0: off):
     on IR frames the top extension (``top_frac_ir``) only through foreground brighter than this many
-    times the halo beside the object (``grow_boxes``'s ``top_halo``; tried, not better)."""
+    times the halo beside the object (``grow_boxes``'s ``top_halo``; tried, not better).
+
+    Session 24 (helper H8, small boats' boxes): ``top_min_px`` (0: off): the top extension
+    (``top_frac``) only for an object found at least this many pixels tall (``grow_boxes``'s
+    ``top_min_px``; the clusters' growing, not the coast's).  On sim ``pan`` 2 (13.6 s) a cluster on
+    the motorboat's wake, a line 15 x 1 px at the waterline that ``max_aspect`` drops, was raised
+    by the top extension at 0.2 into a 15 x 4 box, reported, and took the lost motorboat's
+    identity, which ended its coast (the boat then unreported for 0.3-2 s at a time).
+    ``box_wake_below_px`` (0: off) with ``box_wake_max_h_px`` (20; 0: any): in a small cluster moving
+    across the image, the box members more than this many pixels (times the zoom) below its front
+    member (the one farthest in the direction of motion) leave the box (a small boat's wake foam;
+    see :meth:`FeatureClusterer._wake_below_members`); ``box_wake_top`` (False): below the topmost
+    box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
+    frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
+    rule on IR lost METE on the tuning ``ir`` sequences)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2410,6 +2431,11 @@ class ClusterParams:
     wake_min_px_s: float = 5.0
     top_frac: float = 0.2
     top_frac_ir: float | None = 0.35
+    top_min_px: float = 0.0
+    box_wake_below_px: float = 0.0
+    box_wake_max_h_px: float = 20.0
+    box_wake_top: bool = False
+    box_wake_below_px_ir: float | None = 0.0
     max_aspect: float = 12.0
     cut_core_frac: float = 0.0
     cut_core_undo: bool = False
@@ -2800,6 +2826,54 @@ class FeatureClusterer:
             if len(mem) - int(out.sum()) >= (1 if two else 2):
                 keep[mem[out]] = False
         return keep
+
+    def _wake_below_members(self, k, xy, n, inb, fv, below_px):
+        """The box members (``inb``, None: all) without the wake's foam (not in the paper; session 24,
+        ``params.box_wake_below_px``, on infrared frames ``box_wake_below_px_ir``; ``below_px`` the
+        one of this frame): in a cluster whose box members move across the image (their
+        mean velocity relative to the scene, ``fv`` per member, at least ``params.wake_min_px_s``
+        along x), the front member is the one farthest in the direction of motion; a member lying
+        more than ``below_px`` (times the zoom) below the front one leaves the box.  Only
+        With ``params.box_wake_top`` the reference is the topmost box member instead (the foam
+        may lie ahead of the hull, a bow wave, or level with it).  Only
+        in clusters whose box members span at most ``params.box_wake_max_h_px`` (times the zoom;
+        0: any) vertically (a small boat: a ship's hull features lie far below its bow).  A small
+        boat's foam trails behind it on the water, below the hull's features (sim ``pan``'s rib:
+        foam members 5-7 px below the hull's that move with it; boxes 2-3 times the boat's area)."""
+        p = self.params
+        sel = np.ones(len(k), bool) if inb is None else np.asarray(inb, bool).copy()
+        idx = np.flatnonzero(sel)
+        if len(idx) < 2:
+            return sel
+        kb, xb, yb = k[idx], xy[idx, 0], xy[idx, 1]
+        v = fv[idx, 0]
+        okv = np.isfinite(v)
+        vx = np.zeros(n)
+        np.add.at(vx, kb[okv], v[okv])
+        cnt = np.bincount(kb[okv], minlength=n)
+        vx /= np.maximum(cnt, 1)
+        moving = (cnt > 0) & (np.abs(vx) >= p.wake_min_px_s)
+        if not moving[kb].any():
+            return sel
+        z = self._zoom
+        ylo = np.full(n, np.inf)
+        yhi = np.full(n, -np.inf)
+        np.minimum.at(ylo, kb, yb)
+        np.maximum.at(yhi, kb, yb)
+        small = (yhi - ylo <= p.box_wake_max_h_px * z) if p.box_wake_max_h_px > 0 else np.ones(n, bool)
+        if p.box_wake_top:
+            fy = ylo  # the topmost member
+        else:
+            # each cluster's front member: the largest position along its motion
+            proj = np.sign(vx)[kb] * xb
+            o = np.lexsort((-proj, kb))
+            first = np.ones(len(o), bool)
+            first[1:] = kb[o][1:] != kb[o][:-1]
+            fy = np.full(n, np.nan)
+            fy[kb[o][first]] = yb[o][first]
+        out = moving[kb] & small[kb] & (yb > fy[kb] + below_px * z)
+        sel[idx[out]] = False
+        return sel
 
     def _box_anchor(self, snap, cids, k, xy):
         """Members (``k``: their cluster index into ``cids``, ``xy`` positions) that lie inside
@@ -3604,6 +3678,10 @@ class FeatureClusterer:
             self._disp_anchor = anchor if p.box_dv_px_s > 0 else None
             keep = self._disp_members(snap, m, k, n, inb)
             inb = keep if inb is None else inb & keep
+        wake_below = p.box_wake_below_px_ir if (self._ir and p.box_wake_below_px_ir is not None) else p.box_wake_below_px
+        if wake_below > 0:
+            # session 24: the members below and behind a small moving cluster's front one (its wake's foam)
+            inb = self._wake_below_members(k, xy, n, inb, member_velocity(), wake_below)
         if inb is not None:
             kb, xyb, rb = k[inb], xy[inb], r[inb]
         else:
@@ -3688,7 +3766,7 @@ class FeatureClusterer:
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
                 hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
-                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry)
+                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry, top_min_px=p.top_min_px)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
