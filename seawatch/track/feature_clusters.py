@@ -2833,11 +2833,10 @@ class FeatureClusterer:
         one of this frame): in a cluster whose box members move across the image (their
         mean velocity relative to the scene, ``fv`` per member, at least ``params.wake_min_px_s``
         along x), the front member is the one farthest in the direction of motion; a member lying
-        more than ``below_px`` (times the zoom) below the front one leaves the box.  Only
-        With ``params.box_wake_top`` the reference is the topmost box member instead (the foam
-        may lie ahead of the hull, a bow wave, or level with it).  Only
-        in clusters whose box members span at most ``params.box_wake_max_h_px`` (times the zoom;
-        0: any) vertically (a small boat: a ship's hull features lie far below its bow).  A small
+        more than ``below_px`` (times the zoom) below the front one leaves the box.  With
+        ``params.box_wake_top`` the reference is the topmost box member instead (the foam may lie
+        ahead of the hull, a bow wave, or level with it).  Only in clusters whose box members span
+        at most ``params.box_wake_max_h_px`` (times the zoom; 0: any) vertically (a small boat: a ship's hull features lie far below its bow).  A small
         boat's foam trails behind it on the water, below the hull's features (sim ``pan``'s rib:
         foam members 5-7 px below the hull's that move with it; boxes 2-3 times the boat's area)."""
         p = self.params
@@ -4076,8 +4075,6 @@ class FeatureClusterer:
         left = b[:, 0] + 0.5 * b[:, 2] < 0.5 * ww
         w = np.minimum(b[:, 2], 0.5 * ww)
         e = np.stack([np.where(left, 0.0, ww - w), b[:, 1], w, b[:, 3]], axis=1)
-        cores = np.stack([np.where(left, 0.0, ww - 0.5 * w), e[:, 1] + 0.25 * e[:, 3], 0.5 * w, 0.5 * e[:, 3]],
-                         axis=1)
         grown, contrast, found = np.zeros((len(sel), 4)), np.zeros(len(sel)), np.zeros(len(sel), bool)
         for j in range(len(sel)):
             grown[j], contrast[j], found[j] = self._edge_grow(img, e[j], bool(left[j]))
