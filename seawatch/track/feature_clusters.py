@@ -2334,6 +2334,20 @@ class ClusterParams:
     motorboat's identity, relinked to a fragment at 28.0 s, went back to its old expected box while
     the boat's own cluster was born on the fragment's box in the same frame: three switches).
 
+    Session 24 (helper H9, the switches at the session-23 defaults; both off by default):
+    ``relink_jump_iou`` (0: off): a reported cluster whose box jumps away from its own box of the frame
+    before (IoU under 0.1 with it, carried by the camera) onto a lost identity's expected box (IoU at
+    least this), that identity older than its own, takes that identity; its own is lost where its box
+    was (and may be handed over or relinked there as any lost identity): on ``ir`` 7 at 19.0 s the
+    rib's graph cluster took the features of the ferry, whose identity was lost 0.7 s before, and its
+    box jumped onto the ferry; the ferry was reported under the rib's identity and the rib, when its
+    features parted, under new ones (three switches).  ``relink_side_h_up`` (0: off): with
+    ``relink_side_h_ratio``, an identity lost at the image's side edge is not relinked to a cluster
+    taller than this many times its own height (the zoom-scaled median of its heights clear of the
+    edges): a new cluster is often a part of its boat, rarely more, so the check is tighter upwards
+    than ``relink_side_h_ratio`` (on ``pan`` 6 at 39.0 s the rib's identity, 6 px tall, took the
+    fishing boat's 17 px cluster, ratio 2.7, when the fishing boat came back).
+
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
     extent, which the object found must mostly cover and touch) is each cluster's box members' inner
@@ -2502,6 +2516,8 @@ class ClusterParams:
     grow_core_box_ir: bool = False
     top_halo_ir: float = 0.0
     grow_core_retry_ir: bool = True
+    relink_jump_iou: float = 0.0
+    relink_side_h_up: float = 0.0
 
 
 class FeatureClusterer:
@@ -3046,6 +3062,8 @@ class FeatureClusterer:
                 rep[i] = nid
                 new.remove(best)
                 self._swapped.add(nid)
+        if p.relink_jump_iou > 0 and self._prev_boxes and self._lost:
+            self._jump_lost(carry, cids, boxes, rep, t)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -3094,6 +3112,8 @@ class FeatureClusterer:
                     hb = float(boxes[i][3])
                     if max(hb, he) > p.relink_side_h_ratio * max(min(hb, he), 1.0):
                         continue
+                    if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
+                        continue  # session 24 (H9): a new cluster is a part of its boat, rarely more
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
@@ -3315,6 +3335,39 @@ class FeatureClusterer:
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _jump_lost(self, carry, cids, boxes, rep, t) -> None:
+        """``relink_jump_iou`` (session 24): a cluster reported last frame under identity ``r`` whose
+        box now lies away from its box of the frame before (``carry``: into this frame; IoU under 0.1)
+        and on a lost identity ``k``'s expected box (IoU at least ``relink_jump_iou``; ``k`` older than
+        ``r``; of several, the largest overlap) takes ``k``, as a relink would (``rep`` and the aliases are changed in place); ``r`` is then not reported this
+        frame and is lost at its last box by :meth:`_relink`'s loss pass (hand-over included)."""
+        p = self.params
+        taken = set(int(x) for x in rep)
+        for i in range(len(cids)):
+            r = int(rep[i])
+            if int(cids[i]) not in self._known or r not in self._prev_boxes:
+                continue  # a new cluster, or one not reported the frame before
+            if _iou(boxes[i], carry(self._prev_boxes[r])) >= 0.1:
+                continue  # no jump
+            best, best_o = -1, p.relink_jump_iou
+            for k, (_, lb, _) in self._lost.items():
+                if k >= r or k in taken:
+                    continue
+                o = _iou(boxes[i], lb)
+                if o >= best_o:
+                    best, best_o = k, o
+            if best < 0:
+                continue
+            self._alias[int(cids[i])] = best
+            rep[i] = best
+            taken.add(best)
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
+                self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), int(cids[i]))
+            del self._lost[best]
+            self._lost_dir.pop(best, None)
+            self._lost_alt.pop(best, None)
+            self._lost_alt_dir.pop(best, None)
 
     def _in_view(self, k, lb, view_wh) -> bool:
         """``relink_view_px``: whether lost identity ``k``'s expected box ``lb`` lies within
