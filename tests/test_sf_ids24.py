@@ -1,7 +1,8 @@
 """Session 24 (issue #8, the switches at the session-23 defaults, helper H9):
 ``relink_jump_iou`` (0: off): a reported cluster whose box jumps onto an older lost identity's expected
 box takes that identity (its own is lost where its box was); ``relink_side_h_up`` (0: off): an identity
-lost at the image's side edge is not relinked to a cluster taller than this many times its own height."""
+lost at the image's side edge is not relinked to a cluster taller than this many times its own height;
+``relink_young_s`` (0: off): a lost identity is handed over to a young cluster beside its last box."""
 
 import numpy as np
 
@@ -13,6 +14,7 @@ def test_defaults_off():
     d = ClusterParams()
     assert d.relink_jump_iou == 0.0
     assert d.relink_side_h_up == 0.0
+    assert d.relink_young_s == 0.0
 
 
 # relink_jump_iou: boat 2's cluster K (older) is lost; boat 1's cluster R then jumps onto K's box
@@ -129,3 +131,51 @@ def test_side_h_up_refuses_a_much_taller_cluster():
     assert s_id in c._lost
     got, s_id, t_id, c = _side_run(NEW_LOW, relink_side_h_up=3.0)
     assert got == s_id  # a looser limit: unchanged
+
+
+# relink_young_s: a boat's new cluster born beside its old one shortly before that one dies
+A = [[100, 60], [120, 70]]  # the old cluster's features (box about 24 x 14 px)
+OFF_Y = dict(OFF_J, relink_px=20.0)
+
+
+def _young_run(gap=8.0, t_born=0.1, **kw):
+    """Cluster A (features 1, 2) from 0 s; a cluster N (features 5, 6, moving otherwise, so apart in
+    the graph) ``gap`` px to the right of A's box from ``t_born``; A's features gone at 0.5 s.
+    Returns N's identity at 0.5 s, A's and N's own identities and the clusterer."""
+    c = FeatureClusterer(ClusterParams(**{**OFF_Y, **kw}))
+    va, vn = [[10.0, 0.0]] * 2, [[-10.0, 0.0]] * 2
+    _, t0 = c.update(snap(A, va, 0.0, 0, ids=[1, 2]))
+    a_id = int(t0.ids[0])
+    x0 = 120 + 2 + gap + 2  # N's box starts gap px right of A's (boxes pad the features by 2 px)
+    npts = [[x0, 60], [x0 + 20, 70]]
+    n_id = None
+    fi = 1
+    for t in (0.1, 0.2, 0.3, 0.4):
+        if t >= t_born - 1e-9:
+            _, tr = c.update(snap(A + npts, va + vn, t, fi, ids=[1, 2, 5, 6]))
+            n_id = max(int(i) for i in tr.ids)
+        else:
+            c.update(snap(A, va, t, fi, ids=[1, 2]))
+        fi += 1
+    assert n_id is not None and n_id > a_id
+    _, t5 = c.update(snap(npts, vn, 0.5, fi, ids=[5, 6]))
+    assert len(t5) == 1
+    return int(t5.ids[0]), a_id, n_id, c
+
+
+def test_young_off_keeps_the_own_identity():
+    got, a_id, n_id, c = _young_run()
+    assert got == n_id and a_id in c._lost  # no overlap: no hand-over; born before the loss: no relink
+
+
+def test_young_cluster_beside_takes_the_lost_identity():
+    got, a_id, n_id, c = _young_run(relink_young_s=1.0)
+    assert got == a_id and a_id not in c._lost
+    assert n_id not in c._lost  # the young identity is retired, not lost
+
+
+def test_young_needs_youth_and_nearness():
+    got, a_id, n_id, c = _young_run(relink_young_s=0.2)  # born 0.4 s before the loss: too old
+    assert got == n_id and a_id in c._lost
+    got, a_id, n_id, c = _young_run(gap=30.0, relink_young_s=1.0)  # 30 px away: beyond relink_px
+    assert got == n_id and a_id in c._lost

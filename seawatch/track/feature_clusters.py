@@ -2346,7 +2346,13 @@ class ClusterParams:
     taller than this many times its own height (the zoom-scaled median of its heights clear of the
     edges): a new cluster is often a part of its boat, rarely more, so the check is tighter upwards
     than ``relink_side_h_ratio`` (on ``pan`` 6 at 39.0 s the rib's identity, 6 px tall, took the
-    fishing boat's 17 px cluster, ratio 2.7, when the fishing boat came back).
+    fishing boat's 17 px cluster, ratio 2.7, when the fishing boat came back).  ``relink_young_s``
+    (0: off): when an identity is lost and no cluster overlaps its last box for the hand-over, a
+    cluster reported under its own identity, younger, born at most this many seconds before, and
+    within ``relink_px`` (times the zoom) of that box takes it, the nearest first, with the
+    hand-over's size checks (the relink gives lost identities only to clusters born after the loss:
+    on ``ir`` 7 at 30.0 s the rib's new cluster, born 0.5 s before its old one died beside it,
+    overlap 0.12, kept its own identity).
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2518,6 +2524,7 @@ class ClusterParams:
     grow_core_retry_ir: bool = True
     relink_jump_iou: float = 0.0
     relink_side_h_up: float = 0.0
+    relink_young_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2588,6 +2595,7 @@ class FeatureClusterer:
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
+        self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
@@ -3038,6 +3046,11 @@ class FeatureClusterer:
             self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
+        if p.relink_young_s > 0:  # session 24: each cluster's time of birth
+            for i in new:
+                self._born.setdefault(int(cids[i]), t)
+            if len(self._born) > 4 * max(len(cids), 16):  # bounded memory
+                self._born = {k: tb for k, tb in self._born.items() if t - tb <= p.relink_young_s + 1.0}
         if p.split_follow_box > 0 and new and self._prev_boxes:
             # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
             for i in range(len(cids)):
@@ -3284,6 +3297,8 @@ class FeatureClusterer:
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is None and p.relink_young_s > 0:
+                        r = self._hand_over_to(k, cids, boxes, rep, now, own, young=(t, gap_px))
                     if r is not None and r in self._relinked_now:
                         # hand_over_relinked: the younger identity relinked this frame is lost again as before
                         e = self._relinked_now.pop(r)
@@ -3438,24 +3453,40 @@ class FeatureClusterer:
         return not refused
 
     def _hand_over(self, k, cids, boxes, rep, now, own) -> int | None:
+        """Identity ``k`` was just lost: the hand-over (see :meth:`_hand_over_to`)."""
+        return self._hand_over_to(k, cids, boxes, rep, now, own)
+
+    def _hand_over_to(self, k, cids, boxes, rep, now, own, young=None) -> int | None:
         """Identity ``k`` was just lost: a younger cluster reported under its own identity whose
         box overlaps ``k``'s last box (carried into this frame) by ``relink_overlap`` of the
         smaller one takes ``k`` (the paper's merge rule, the oldest identity stays, applied when
         one of two clusters on an object dies rather than joins the other).  Returns the younger
         identity given up (retired: it is not lost, so it cannot come back on another cluster),
-        or None."""
+        or None.  ``young`` (``relink_young_s``, session 24: this frame's time and the gap function):
+        instead of the overlap, a cluster reported under its own identity, born at most
+        ``relink_young_s`` before, within ``relink_px`` (times the zoom) of the lost box takes ``k``,
+        the nearest first (a boat's new cluster born beside its old one shortly before that one
+        died: the relink takes only clusters born after the loss)."""
         lb = self._lost[k][1]
         best, best_o = -1, self.params.relink_overlap
+        if young is not None:
+            t_now, gap_fn = young
+            best_o = -(self.params.relink_px * self._zoom)
         for i, r in enumerate(rep):
             r = int(r)
             if r <= k or (r != int(cids[i]) and r not in self._swapped
                           and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
                 continue  # older, or already carrying another identity (unless relinked this frame: hand_over_relinked)
             b = boxes[i]
-            iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
-            ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
-            small = min(b[2] * b[3], lb[2] * lb[3])
-            o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
+            if young is not None:
+                if r != int(cids[i]) or t_now - self._born.get(r, -np.inf) > self.params.relink_young_s + 1e-9:
+                    continue  # only a young cluster under its own identity
+                o = -gap_fn(b, lb)  # the nearer, the higher
+            else:
+                iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
+                ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
+                small = min(b[2] * b[3], lb[2] * lb[3])
+                o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
             if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
                     k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
                 continue  # session 20: a neighbour moving otherwise is another boat
