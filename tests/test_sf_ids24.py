@@ -2,7 +2,8 @@
 ``relink_jump_iou`` (0: off): a reported cluster whose box jumps onto an older lost identity's expected
 box takes that identity (its own is lost where its box was); ``relink_side_h_up`` (0: off): an identity
 lost at the image's side edge is not relinked to a cluster taller than this many times its own height;
-``relink_young_s`` (0: off): a lost identity is handed over to a young cluster beside its last box."""
+``relink_young_s`` (0: off): a lost identity is handed over to a young cluster beside its last box;
+``relink_aspect_ratio`` (0: off): a lost identity is not relinked to a box of a very different shape."""
 
 import numpy as np
 
@@ -15,6 +16,7 @@ def test_defaults_off():
     assert d.relink_jump_iou == 0.0
     assert d.relink_side_h_up == 0.0
     assert d.relink_young_s == 0.0
+    assert d.relink_aspect_ratio == 0.0
 
 
 # relink_jump_iou: boat 2's cluster K (older) is lost; boat 1's cluster R then jumps onto K's box
@@ -179,3 +181,36 @@ def test_young_needs_youth_and_nearness():
     assert got == n_id and a_id in c._lost
     got, a_id, n_id, c = _young_run(gap=30.0, relink_young_s=1.0)  # 30 px away: beyond relink_px
     assert got == n_id and a_id in c._lost
+
+
+# relink_aspect_ratio: a tall box's identity (a sailboat) and a long new box (a hull) on its place
+MAST = [[100, 40], [104, 70]]  # box about 8 x 34 px (w/h 0.24)
+HULL = [[96, 62], [136, 70]]  # box about 44 x 12 px (w/h 3.7), overlapping the mast's box
+
+
+def _aspect_run(new_pts=HULL, **kw):
+    c = FeatureClusterer(ClusterParams(**{**OFF_J, **kw}))
+    v = [[10.0, 0.0]] * 2
+    _, t0 = c.update(snap(MAST, v, 0.0, 0, ids=[1, 2]))
+    m_id = int(t0.ids[0])
+    c.update(snap(MAST, v, 0.1, 1, ids=[1, 2]))
+    c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.2, 2, ids=[]))
+    assert m_id in c._lost and m_id not in c._lost_side
+    _, t3 = c.update(snap(new_pts, v, 0.5, 3, ids=[5, 6]))
+    assert len(t3) == 1
+    return int(t3.ids[0]), m_id, c
+
+
+def test_aspect_off_relinks_whatever_the_shape():
+    got, m_id, c = _aspect_run()
+    assert got == m_id
+
+
+def test_aspect_refuses_another_shape():
+    got, m_id, c = _aspect_run(relink_aspect_ratio=5.0)
+    assert got != m_id and m_id in c._lost  # x15: refused
+    like = [[98, 44], [106, 70]]  # a box of like shape on the same place: relinked
+    got, m_id, c = _aspect_run(new_pts=like, relink_aspect_ratio=5.0)
+    assert got == m_id
+    got, m_id, c = _aspect_run(relink_aspect_ratio=20.0)  # a looser limit
+    assert got == m_id

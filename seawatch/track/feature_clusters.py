@@ -2352,7 +2352,11 @@ class ClusterParams:
     within ``relink_px`` (times the zoom) of that box takes it, the nearest first, with the
     hand-over's size checks (the relink gives lost identities only to clusters born after the loss:
     on ``ir`` 7 at 30.0 s the rib's new cluster, born 0.5 s before its old one died beside it,
-    overlap 0.12, kept its own identity).
+    overlap 0.12, kept its own identity).  ``relink_aspect_ratio`` (0: off): a lost identity is not
+    relinked to a new cluster whose box's width-to-height ratio differs from its lost box's by more than
+    this factor (either way; not for an identity lost at the image's side edge, whose box is clipped, nor
+    for boxes under 2 px): on ``ir`` 8 at 15.5 s and ``ir`` 7 at 18.0 s the sailboat's identity (a box
+    14 x 18 and 5 x 8 px) went to the far cargo ship's new cluster (53 x 11, 52 x 13 px), x6.2 and x6.4.
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2525,6 +2529,7 @@ class ClusterParams:
     relink_jump_iou: float = 0.0
     relink_side_h_up: float = 0.0
     relink_young_s: float = 0.0
+    relink_aspect_ratio: float = 0.0
 
 
 class FeatureClusterer:
@@ -3127,6 +3132,12 @@ class FeatureClusterer:
                         continue
                     if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
                         continue  # session 24 (H9): a new cluster is a part of its boat, rarely more
+                if (p.relink_aspect_ratio > 0 and k not in self._lost_side and min(lb[2], lb[3]) >= 2.0
+                        and min(boxes[i][2], boxes[i][3]) >= 2.0):
+                    # session 24 (H9): a boat keeps its shape (a mast's tall box is not a hull's long one)
+                    ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(lb[2]) / float(lb[3]))
+                    if max(ar, 1.0 / ar) > p.relink_aspect_ratio:
+                        continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
@@ -3269,7 +3280,7 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0:
+                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0:
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
