@@ -2355,6 +2355,30 @@ class ClusterParams:
     motorboat's identity, relinked to a fragment at 28.0 s, went back to its old expected box while
     the boat's own cluster was born on the fragment's box in the same frame: three switches).
 
+    Session 24 (helper H9, the switches at the session-23 defaults; both off by default):
+    ``relink_jump_iou`` (0: off): a reported cluster whose box jumps away from its own box of the frame
+    before (IoU under 0.1 with it, carried by the camera) onto a lost identity's expected box (IoU at
+    least this), that identity older than its own, takes that identity; its own is lost where its box
+    was (and may be handed over or relinked there as any lost identity): on ``ir`` 7 at 19.0 s the
+    rib's graph cluster took the features of the ferry, whose identity was lost 0.7 s before, and its
+    box jumped onto the ferry; the ferry was reported under the rib's identity and the rib, when its
+    features parted, under new ones (three switches).  ``relink_side_h_up`` (0: off): with
+    ``relink_side_h_ratio``, an identity lost at the image's side edge is not relinked to a cluster
+    taller than this many times its own height (the zoom-scaled median of its heights clear of the
+    edges): a new cluster is often a part of its boat, rarely more, so the check is tighter upwards
+    than ``relink_side_h_ratio`` (on ``pan`` 6 at 39.0 s the rib's identity, 6 px tall, took the
+    fishing boat's 17 px cluster, ratio 2.7, when the fishing boat came back).  ``relink_young_s``
+    (0: off): when an identity is lost and no cluster overlaps its last box for the hand-over, a
+    cluster reported under its own identity, younger, born at most this many seconds before, and
+    within ``relink_px`` (times the zoom) of that box takes it, the nearest first, with the
+    hand-over's size checks (the relink gives lost identities only to clusters born after the loss:
+    on ``ir`` 7 at 30.0 s the rib's new cluster, born 0.5 s before its old one died beside it,
+    overlap 0.12, kept its own identity).  ``relink_aspect_ratio`` (0: off): a lost identity is not
+    relinked to a new cluster whose box's width-to-height ratio differs from its lost box's by more than
+    this factor (either way; not for an identity lost at the image's side edge, whose box is clipped, nor
+    for boxes under 2 px): on ``ir`` 8 at 15.5 s and ``ir`` 7 at 18.0 s the sailboat's identity (a box
+    14 x 18 and 5 x 8 px) went to the far cargo ship's new cluster (53 x 11, 52 x 13 px), x6.2 and x6.4.
+
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
     extent, which the object found must mostly cover and touch) is each cluster's box members' inner
@@ -2545,6 +2569,11 @@ class ClusterParams:
     coast_edge: float = 0.0
     coast_edge_s: float = 0.0
 
+    relink_jump_iou: float = 0.0
+    relink_side_h_up: float = 0.0
+    relink_young_s: float = 0.0
+    relink_aspect_ratio: float = 0.0
+
 
 class FeatureClusterer:
     """Clusters of stable features as tracked objects (the tracking half of paper B).
@@ -2614,6 +2643,7 @@ class FeatureClusterer:
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
+        self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._camera = None
@@ -3111,6 +3141,11 @@ class FeatureClusterer:
             self._lost_alt = {k: e for k, e in expect(self._lost_alt, self._lost_alt_dir).items() if k in self._lost}
         rep = np.array([self._alias.get(int(c), int(c)) for c in cids], np.int64)
         new = [i for i, c in enumerate(cids) if int(c) not in self._known]
+        if p.relink_young_s > 0:  # session 24: each cluster's time of birth
+            for i in new:
+                self._born.setdefault(int(cids[i]), t)
+            if len(self._born) > 4 * max(len(cids), 16):  # bounded memory
+                self._born = {k: tb for k, tb in self._born.items() if t - tb <= p.relink_young_s + 1.0}
         if p.split_follow_box > 0 and new and self._prev_boxes:
             # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
             for i in range(len(cids)):
@@ -3135,6 +3170,8 @@ class FeatureClusterer:
                 rep[i] = nid
                 new.remove(best)
                 self._swapped.add(nid)
+        if p.relink_jump_iou > 0 and self._prev_boxes and self._lost:
+            self._jump_lost(carry, cids, boxes, rep, t)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -3182,6 +3219,14 @@ class FeatureClusterer:
                     he = float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw]))
                     hb = float(boxes[i][3])
                     if max(hb, he) > p.relink_side_h_ratio * max(min(hb, he), 1.0):
+                        continue
+                    if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
+                        continue  # session 24 (H9): a new cluster is a part of its boat, rarely more
+                if (p.relink_aspect_ratio > 0 and k not in self._lost_side and min(lb[2], lb[3]) >= 2.0
+                        and min(boxes[i][2], boxes[i][3]) >= 2.0):
+                    # session 24 (H9): a boat keeps its shape (a mast's tall box is not a hull's long one)
+                    ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(lb[2]) / float(lb[3]))
+                    if max(ar, 1.0 / ar) > p.relink_aspect_ratio:
                         continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
@@ -3325,7 +3370,7 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
-                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0:
+                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0:
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
@@ -3353,6 +3398,8 @@ class FeatureClusterer:
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
+                    if r is None and p.relink_young_s > 0:
+                        r = self._hand_over_to(k, cids, boxes, rep, now, own, young=(t, gap_px))
                     if r is not None and r in self._relinked_now:
                         # hand_over_relinked: the younger identity relinked this frame is lost again as before
                         e = self._relinked_now.pop(r)
@@ -3404,6 +3451,39 @@ class FeatureClusterer:
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _jump_lost(self, carry, cids, boxes, rep, t) -> None:
+        """``relink_jump_iou`` (session 24): a cluster reported last frame under identity ``r`` whose
+        box now lies away from its box of the frame before (``carry``: into this frame; IoU under 0.1)
+        and on a lost identity ``k``'s expected box (IoU at least ``relink_jump_iou``; ``k`` older than
+        ``r``; of several, the largest overlap) takes ``k``, as a relink would (``rep`` and the aliases are changed in place); ``r`` is then not reported this
+        frame and is lost at its last box by :meth:`_relink`'s loss pass (hand-over included)."""
+        p = self.params
+        taken = set(int(x) for x in rep)
+        for i in range(len(cids)):
+            r = int(rep[i])
+            if int(cids[i]) not in self._known or r not in self._prev_boxes:
+                continue  # a new cluster, or one not reported the frame before
+            if _iou(boxes[i], carry(self._prev_boxes[r])) >= 0.1:
+                continue  # no jump
+            best, best_o = -1, p.relink_jump_iou
+            for k, (_, lb, _) in self._lost.items():
+                if k >= r or k in taken:
+                    continue
+                o = _iou(boxes[i], lb)
+                if o >= best_o:
+                    best, best_o = k, o
+            if best < 0:
+                continue
+            self._alias[int(cids[i])] = best
+            rep[i] = best
+            taken.add(best)
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
+                self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), int(cids[i]))
+            del self._lost[best]
+            self._lost_dir.pop(best, None)
+            self._lost_alt.pop(best, None)
+            self._lost_alt_dir.pop(best, None)
 
     def _in_view(self, k, lb, view_wh) -> bool:
         """``relink_view_px``: whether lost identity ``k``'s expected box ``lb`` lies within
@@ -3474,24 +3554,40 @@ class FeatureClusterer:
         return not refused
 
     def _hand_over(self, k, cids, boxes, rep, now, own) -> int | None:
+        """Identity ``k`` was just lost: the hand-over (see :meth:`_hand_over_to`)."""
+        return self._hand_over_to(k, cids, boxes, rep, now, own)
+
+    def _hand_over_to(self, k, cids, boxes, rep, now, own, young=None) -> int | None:
         """Identity ``k`` was just lost: a younger cluster reported under its own identity whose
         box overlaps ``k``'s last box (carried into this frame) by ``relink_overlap`` of the
         smaller one takes ``k`` (the paper's merge rule, the oldest identity stays, applied when
         one of two clusters on an object dies rather than joins the other).  Returns the younger
         identity given up (retired: it is not lost, so it cannot come back on another cluster),
-        or None."""
+        or None.  ``young`` (``relink_young_s``, session 24: this frame's time and the gap function):
+        instead of the overlap, a cluster reported under its own identity, born at most
+        ``relink_young_s`` before, within ``relink_px`` (times the zoom) of the lost box takes ``k``,
+        the nearest first (a boat's new cluster born beside its old one shortly before that one
+        died: the relink takes only clusters born after the loss)."""
         lb = self._lost[k][1]
         best, best_o = -1, self.params.relink_overlap
+        if young is not None:
+            t_now, gap_fn = young
+            best_o = -(self.params.relink_px * self._zoom)
         for i, r in enumerate(rep):
             r = int(r)
             if r <= k or (r != int(cids[i]) and r not in self._swapped
                           and not (r in self._relinked_now and self._relinked_now[r][0] == i)):
                 continue  # older, or already carrying another identity (unless relinked this frame: hand_over_relinked)
             b = boxes[i]
-            iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
-            ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
-            small = min(b[2] * b[3], lb[2] * lb[3])
-            o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
+            if young is not None:
+                if r != int(cids[i]) or t_now - self._born.get(r, -np.inf) > self.params.relink_young_s + 1e-9:
+                    continue  # only a young cluster under its own identity
+                o = -gap_fn(b, lb)  # the nearer, the higher
+            else:
+                iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
+                ih = min(b[1] + b[3], lb[1] + lb[3]) - max(b[1], lb[1])
+                small = min(b[2] * b[3], lb[2] * lb[3])
+                o = iw * ih / small if iw > 0 and ih > 0 and small > 0 else 0.0
             if o >= best_o and self.params.hand_over_dv_px_s > 0 and not self._dv_ok(
                     k, *self._own_now.get(r, (None, 0.0)), self.params.hand_over_dv_px_s):
                 continue  # session 20: a neighbour moving otherwise is another boat
