@@ -56,7 +56,7 @@ def run(back_boat=True, out_frames=3, **kw):
 
 def test_off_by_default_and_the_coast_ends_outside_without_it():
     assert ClusterParams().coast_outside_wait is False
-    c, _, out = run()
+    c, _, out = run(coast_edge=0.0)  # session 24's edge look (on by default) off
     assert all(len(tr) == 0 for tr in out)
     assert [e[3] for e in c.coast_log] == ["outside"]  # ended at the first look outside: never looked at again
 
@@ -110,9 +110,11 @@ def run_fragment(**kw):
     return c, ident, tr
 
 
-def test_grow_up_off_by_default_the_size_check_refuses_the_whole_hull():
-    assert ClusterParams().coast_grow_up == 0.0
-    c, _, tr = run_fragment()
+def test_grow_up_on_by_default_since_session_24_and_without_it_the_size_check_refuses_the_whole_hull():
+    assert ClusterParams().coast_grow_up == 6.0  # the lead's decision U3 (0: off)
+    _, ident, tr = run_fragment()
+    assert tr.ids.tolist() == [ident] and np.allclose(tr.boxes[0], [100, 60, 40, 10], atol=1)
+    c, _, tr = run_fragment(coast_grow_up=0.0)
     assert len(tr) == 0
     assert [e[3] for e in c.coast_log] == ["size"]
 

@@ -55,12 +55,14 @@ def run(moves, boats=None, **kw):
     return c, ident, out
 
 
-def test_off_by_default_the_coast_ends_outside():
-    assert ClusterParams().coast_edge == 0.0
+def test_on_by_default_since_session_24_and_off_the_coast_ends_outside():
+    assert ClusterParams().coast_edge == 6.0  # the lead's decision U3 (0: off)
     # the pan carries the hull to x -25..15: its expected box's centre lies left of the image
-    c, _, out = run([-125.0, -2.0])
+    c, _, out = run([-125.0, -2.0], coast_edge=0.0)
     assert all(len(tr) == 0 for tr in out)
     assert [e[3] for e in c.coast_log] == ["outside"]  # ended at once
+    _, ident, out = run([-125.0, -2.0])  # by default the part in view is reported with its identity
+    assert all(tr.ids.tolist() == [ident] for tr in out)
 
 
 def test_the_part_in_view_at_the_left_edge_is_reported_with_the_identity():
@@ -121,7 +123,7 @@ def test_the_edge_look_cuts_the_box_at_the_edge_on_either_side():
 
 
 def test_coast_edge_s_bounds_the_wait_at_the_edge():
-    assert ClusterParams().coast_edge_s == 0.0
+    assert ClusterParams().coast_edge_s == 8.0  # on by default since session 24 (0: within coast_s)
     # the hull comes back 0.3 s after the loss: a bound of 0.25 s ends the wait (no look then), 0.35 s does not
     c, _, out = run([-150.0, 0.0, 0.0, 20.0], boats=[False, False, False, True], coast_edge=6.0, coast_edge_s=0.25)
     assert all(len(tr) == 0 for tr in out)

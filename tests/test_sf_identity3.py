@@ -11,7 +11,8 @@ EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 # the session-21 relink checks and session 22's defaults switched off, so that only the check
 # under test acts
 OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0, relink_dy_h=0.0,
-           relink_iou_tie=False, relink_view_px=0.0)
+           relink_iou_tie=False, relink_view_px=0.0,
+           box_wake_below_px=0.0)  # session 24's wake cut (on by default) would cut these two-point boxes
 
 
 def test_defaults_since_session_22():

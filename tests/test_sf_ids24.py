@@ -24,7 +24,8 @@ P1 = [[100, 60], [130, 70]]  # boat 1 (R's boat)
 P2 = [[20, 120], [44, 130]]  # boat 2 (K's boat), far from boat 1 (more than the graph's 50 px)
 OFF_J = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
              relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False,
-             split_follow_box=0.0, relink_min_s=0.0)
+             split_follow_box=0.0, relink_min_s=0.0,
+             box_wake_below_px=0.0)  # session 24's wake cut (on by default) would cut the two-point boxes
 
 
 def _jump_run(jump_pts=P2, **kw):
@@ -93,7 +94,8 @@ OFF_S = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=
              relink_px=200.0, relink_iou_tie=False, relink_view_px=0.0, relink_min_area=0.0,
              relink_height_zoom_min=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
              hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0,
-             relink_side_h_ratio=3.0, relink_undo_hand_over=False)
+             relink_side_h_ratio=3.0, relink_undo_hand_over=False,
+             box_wake_below_px=0.0)  # session 24's wake cut (on by default) would cut the two-point boxes
 SMALL = [[100, 120], [110, 124]]  # a small boat (box about 8 px tall)
 TALL = [[100, 40], [120, 64]]  # a tall boat (box about 28 px tall), above it
 NEW_LOW = [[20, 116], [30, 132]]  # a cluster about 20 px tall on the small boat's row (nearer its box)

@@ -15,7 +15,8 @@ OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=30
            relink_px=200.0, relink_iou_tie=False, relink_view_px=0.0, relink_min_area=0.0,
            relink_height_zoom_min=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
            hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0,
-           relink_side_h_ratio=0.0, relink_undo_hand_over=False)  # session 23's steps off (on by default)
+           relink_side_h_ratio=0.0, relink_undo_hand_over=False,  # session 23's steps off (on by default)
+           box_wake_below_px=0.0)  # and session 24's wake cut (on by default: it cuts two-point boxes)
 SMALL = [[100, 120], [110, 124]]  # a small boat (box about 8 px tall)
 TALL = [[100, 40], [120, 64]]  # a tall boat (box about 28 px tall), above it
 NEW_SMALL = [[140, 60], [150, 64]]  # a small cluster back later, on the tall boat's row (nearer its box)

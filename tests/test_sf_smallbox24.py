@@ -29,8 +29,8 @@ def _scene(obj_h: int, seed: int = 0):
 KW = dict(grow=1.0, peak_frac=0.3, top_frac=0.2, min_contrast=10.0)
 
 
-def test_default_is_off():
-    assert ClusterParams().top_min_px == 0.0
+def test_default_since_session_24():
+    assert ClusterParams().top_min_px == 2.0  # the lead's decision U3 (0: off)
 
 
 def test_a_line_is_raised_without_and_kept_with_top_min_px():
@@ -83,10 +83,10 @@ def cluster_reports(**kw):
 
 
 def test_the_clusterer_uses_its_field():
-    off = cluster_reports()
+    off = cluster_reports(top_min_px=0.0)
     assert len(off) == 1 and off[0][3] >= 5  # the line raised into the patch: reported
     # with the field the line stays a line, which max_aspect (12) does not report
-    assert cluster_reports(top_min_px=2.0) == []
+    assert cluster_reports(top_min_px=2.0) == [] == cluster_reports()  # on by default
     # and without max_aspect it is reported one pixel tall
     on = cluster_reports(top_min_px=2.0, max_aspect=0.0)
     assert len(on) == 1 and on[0][3] == 1
@@ -108,10 +108,11 @@ def wake_box(foam, vel, ir=False, **kw):
     return [float(v) for v in tr.boxes[0]]
 
 
-def test_wake_rule_is_off_by_default():
+def test_wake_rule_on_by_default_since_session_24_and_off_with_zero():
     p = ClusterParams()
-    assert p.box_wake_below_px == 0.0 and p.box_wake_below_px_ir == 0.0
-    assert wake_box([104.0, 72.0], [20.0, 0.0]) == [102.0, 61.0, 26.0, 13.0]
+    assert p.box_wake_below_px == 5.0 and p.box_wake_below_px_ir == 0.0  # the lead's decision U3
+    assert wake_box([104.0, 72.0], [20.0, 0.0], box_wake_below_px=0.0) == [102.0, 61.0, 26.0, 13.0]
+    assert wake_box([104.0, 72.0], [20.0, 0.0]) == [118.0, 61.0, 10.0, 5.0]
 
 
 def test_foam_below_and_behind_a_moving_boat_leaves_the_box():

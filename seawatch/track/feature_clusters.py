@@ -2337,6 +2337,9 @@ class ClusterParams:
     and its identity went to boat 6 while the ferry's part was born anew; on ``ir`` 6 at 8.1 s the
     rib's identity went to the fishing boat's part).
 
+    Session 24: on by default since session 24 (the lead's decision U3): helper H7's ``coast_edge`` 6
+    with ``coast_edge_s`` 8 and helper H5's ``coast_grow_up`` 6 (session 23), and helper H8's
+    ``box_wake_below_px`` 5 with ``top_min_px`` 2 (the off value of each is 0).
     Session 23 round 2: on by default since session 23 (the lead's decision U2): helper H4's
     ``relink_side_h_ratio`` 3 with ``relink_undo_hand_over``, and helper H6's ``grow_core_q_ir`` 0.4
     with ``grow_core_retry_ir`` (the off values below are the fields' old defaults).
@@ -2455,8 +2458,8 @@ class ClusterParams:
     wake_min_px_s: float = 5.0
     top_frac: float = 0.2
     top_frac_ir: float | None = 0.35
-    top_min_px: float = 0.0
-    box_wake_below_px: float = 0.0
+    top_min_px: float = 2.0
+    box_wake_below_px: float = 5.0
     box_wake_max_h_px: float = 20.0
     box_wake_top: bool = False
     box_wake_below_px_ir: float | None = 0.0
@@ -2558,7 +2561,7 @@ class ClusterParams:
     hand_over_relinked: bool = True
     split_follow_box: float = 0.5
     coast_outside_wait: bool = False
-    coast_grow_up: float = 0.0
+    coast_grow_up: float = 6.0
     relink_side_h_ratio: float = 3.0
     relink_side_h_n: int = 5
     relink_undo_hand_over: bool = True
@@ -2566,8 +2569,8 @@ class ClusterParams:
     grow_core_box_ir: bool = False
     top_halo_ir: float = 0.0
     grow_core_retry_ir: bool = True
-    coast_edge: float = 0.0
-    coast_edge_s: float = 0.0
+    coast_edge: float = 6.0
+    coast_edge_s: float = 8.0
 
     relink_jump_iou: float = 0.0
     relink_side_h_up: float = 0.0
