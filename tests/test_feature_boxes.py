@@ -230,7 +230,9 @@ def test_a_younger_cluster_over_a_lost_one_takes_its_identity():
     (the paper's merge rule), without it keeps its own."""
     def run(overlap):
         # merge_overlap 0.5: the two reports (overlapping by 0.48) stay apart (the default 0.25 joins them)
-        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=overlap, merge_overlap=0.5))
+        # (relink_young_s, on by default since session 24, off: the overlap rule alone is under test)
+        c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=2.0, relink_overlap=overlap, merge_overlap=0.5,
+                                           relink_young_s=0.0))
         xy = [[100, 60], [110, 62], [106, 61], [116, 63]]
         vel = [[20, 0], [20, 0], [0, 20], [0, 20]]
         _, tr = c.update(snap(xy, vel, 0.0, 0, ids=[1, 2, 3, 4]))

@@ -11,12 +11,12 @@ from _feature_snap import snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 
-def test_defaults_off():
-    d = ClusterParams()
-    assert d.relink_jump_iou == 0.0
+def test_defaults_since_session_24():
+    d = ClusterParams()  # the lead's decision V (0: off)
+    assert d.relink_jump_iou == 0.5
     assert d.relink_side_h_up == 0.0
-    assert d.relink_young_s == 0.0
-    assert d.relink_aspect_ratio == 0.0
+    assert d.relink_young_s == 1.0
+    assert d.relink_aspect_ratio == 6.0
 
 
 # relink_jump_iou: boat 2's cluster K (older) is lost; boat 1's cluster R then jumps onto K's box
@@ -25,7 +25,8 @@ P2 = [[20, 120], [44, 130]]  # boat 2 (K's boat), far from boat 1 (more than the
 OFF_J = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
              relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False,
              split_follow_box=0.0, relink_min_s=0.0,
-             box_wake_below_px=0.0)  # session 24's wake cut (on by default) would cut the two-point boxes
+             box_wake_below_px=0.0,  # session 24's wake cut (on by default) would cut the two-point boxes
+             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0)  # off unless a test sets them
 
 
 def _jump_run(jump_pts=P2, **kw):
@@ -95,7 +96,8 @@ OFF_S = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=
              relink_height_zoom_min=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
              hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0,
              relink_side_h_ratio=3.0, relink_undo_hand_over=False,
-             box_wake_below_px=0.0)  # session 24's wake cut (on by default) would cut the two-point boxes
+             box_wake_below_px=0.0,  # session 24's wake cut (on by default) would cut the two-point boxes
+             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0)  # off unless a test sets them
 SMALL = [[100, 120], [110, 124]]  # a small boat (box about 8 px tall)
 TALL = [[100, 40], [120, 64]]  # a tall boat (box about 28 px tall), above it
 NEW_LOW = [[20, 116], [30, 132]]  # a cluster about 20 px tall on the small boat's row (nearer its box)

@@ -2339,7 +2339,8 @@ class ClusterParams:
 
     Session 24: on by default since session 24 (the lead's decision U3): helper H7's ``coast_edge`` 6
     with ``coast_edge_s`` 8 and helper H5's ``coast_grow_up`` 6 (session 23), and helper H8's
-    ``box_wake_below_px`` 5 with ``top_min_px`` 2 (the off value of each is 0).
+    ``box_wake_below_px`` 5 with ``top_min_px`` 2; then (decision V) helper H9's ``relink_jump_iou`` 0.5,
+    ``relink_young_s`` 1 and ``relink_aspect_ratio`` 6 (the off value of each is 0).
     Session 23 round 2: on by default since session 23 (the lead's decision U2): helper H4's
     ``relink_side_h_ratio`` 3 with ``relink_undo_hand_over``, and helper H6's ``grow_core_q_ir`` 0.4
     with ``grow_core_retry_ir`` (the off values below are the fields' old defaults).
@@ -2572,10 +2573,10 @@ class ClusterParams:
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
 
-    relink_jump_iou: float = 0.0
+    relink_jump_iou: float = 0.5
     relink_side_h_up: float = 0.0
-    relink_young_s: float = 0.0
-    relink_aspect_ratio: float = 0.0
+    relink_young_s: float = 1.0
+    relink_aspect_ratio: float = 6.0
 
 
 class FeatureClusterer:
