@@ -78,3 +78,58 @@ def test_look_up_method_extends_by_the_factor():
     out2, ok2 = c2._coast_look_up(sea(1), HULL_BOX[None, :], np.zeros((0, 4)))
     assert ok2[0]
     assert out2[0, 1] < HULL_BOX[1] - 3  # reaches above the expected box
+
+
+# coast_look_ahead: the expected box lags behind a boat moving on its own (the camera alone moved the box)
+FERRY = (110, 60, 130, 80)  # a 20 x 20 px dark boat
+
+
+def ferry_sea(seed, boat=True):
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, SHAPE)
+    if boat:
+        x0, y0, x1, y1 = FERRY
+        img[y0:y1, x0:x1] = 60.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def coast_ahead(img, vx, lag=-17.0, reported=None, **kw):
+    """One lost identity whose expected box lies ``-lag`` px behind the ferry (to its left when the
+    lag is negative), lost 0.2 s ago with its own velocity ``vx`` px/s, coasted in one frame."""
+    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0)
+    base.update(kw)
+    c = FeatureClusterer(ClusterParams(**base))
+    c._birth[7] = 0.0
+    box = np.array([FERRY[0] + lag, FERRY[1], 20.0, 20.0])
+    c._lost[7] = (1.0, box, np.array([vx, 0.0]))
+    s = snap(np.zeros((0, 2)), np.zeros((0, 2)), 1.2, 12, [], shape=SHAPE)
+    rep = np.zeros((0, 4)) if reported is None else np.asarray(reported, float).reshape(-1, 4)
+    ids, boxes, _ = c._coast(s, rep, image=img)
+    return c, ids, boxes, c.coast_log[-1][3]
+
+
+def test_look_ahead_off_by_default_and_off_the_lagging_box_is_not_found():
+    assert ClusterParams().coast_look_ahead == 0.0
+    _, ids, _, why = coast_ahead(ferry_sea(1), 40.0)
+    assert len(ids) == 0 and why == "not found"
+
+
+def test_look_ahead_finds_the_boat_in_its_direction_only():
+    c, ids, boxes, why = coast_ahead(ferry_sea(1), 40.0, coast_look_ahead=0.5)
+    assert why == "ahead" and list(ids) == [7]
+    x, y, w, h = boxes[0]
+    assert abs(x - FERRY[0]) <= 2 and abs(w - 20) <= 3
+    assert np.allclose(c._lost[7][1], boxes[0])  # followed
+    # moving left, the look goes left, away from the boat: not found
+    _, ids, _, why = coast_ahead(ferry_sea(1), -40.0, coast_look_ahead=0.5)
+    assert len(ids) == 0
+    # no own velocity known: no look ahead
+    _, ids, _, why = coast_ahead(ferry_sea(1), 0.0, coast_look_ahead=0.5)
+    assert len(ids) == 0
+
+
+def test_look_ahead_does_not_take_water_or_a_reported_boat():
+    _, ids, _, _ = coast_ahead(ferry_sea(2, boat=False), 40.0, coast_look_ahead=0.5)
+    assert len(ids) == 0
+    _, ids, _, _ = coast_ahead(ferry_sea(1), 40.0, reported=[[109.0, 59.0, 22.0, 22.0]], coast_look_ahead=0.5)
+    assert len(ids) == 0

@@ -2249,7 +2249,12 @@ class ClusterParams:
     grown box is reported (outcome "up") and followed when it was found, stands out
     (``min_contrast``), holds at least half of the expected box, its area lies within
     ``coast_size_ratio`` of the extended box's either way, it is no line (``max_aspect``) and covers no
-    more than a quarter of one of this frame's reports.
+    more than a quarter of one of this frame's reports.  ``coast_look_ahead`` (0: off): a coast still
+    not found is grown once more from the expected box shifted by this many box widths in the
+    direction of the identity's own horizontal velocity when lost (the expected box lags behind a
+    boat whose own motion it does not follow: ``pan`` 44's ferry, 6-9 px behind at 40 px/s);
+    reported (outcome "ahead") and followed under the same checks, with the grown box's centre
+    within the rows of the expected box and between it and the shifted box.
 
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
@@ -2582,6 +2587,7 @@ class ClusterParams:
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
     coast_look_up: float = 0.0
+    coast_look_ahead: float = 0.0
 
     relink_jump_iou: float = 0.5
     relink_side_h_up: float = 0.0
@@ -4106,6 +4112,17 @@ class FeatureClusterer:
                 contrast[miss[ok3]] = np.inf
                 good[miss[ok3]] = True
                 up[miss[ok3]] = True
+            ahead = np.zeros(len(sel), bool)
+            vx = vel[sel, 0]
+            if p.coast_look_ahead > 0 and not (found | good | (np.abs(vx) < 1.0)).all():
+                # session 24 (H10): not found where the camera carried the box: looked at ahead of it
+                miss = np.flatnonzero(~found & ~good & (np.abs(vx) >= 1.0))
+                g4, ok4 = self._coast_look_ahead(img, b[miss], np.sign(vx[miss]), reported)
+                grown[miss[ok4]] = g4[ok4]
+                found[miss[ok4]] = True
+                contrast[miss[ok4]] = np.inf
+                good[miss[ok4]] = True
+                ahead[miss[ok4]] = True
             searched = np.zeros(len(sel), bool)
             if p.coast_search > 0 and not good.all():  # session 22: look around the expected place
                 bad = np.flatnonzero(~good)
@@ -4120,6 +4137,7 @@ class FeatureClusterer:
                                                               np.where(good, "reported", "size")))
             why[sel[searched]] = "searched"  # coast_search: reported at a box found around the expected place
             why[sel[up]] = "up"  # coast_look_up: reported at the box grown from the expected box extended up
+            why[sel[ahead]] = "ahead"  # coast_look_ahead: reported at the box grown ahead of the expected box
             lbs[sel] = np.where(good[:, None], grown, b)
             if p.coast_follow:
                 for j in np.flatnonzero(good):
@@ -4285,6 +4303,43 @@ class FeatureClusterer:
         iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
         ok = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
               & (ratio >= 1.0 / p.coast_size_ratio) & (ix * iy >= 0.5 * b[:, 2] * b[:, 3]))
+        if p.max_aspect > 0:
+            ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
+        if len(reported) and ok.any():
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+            ok &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+        out[ok] = grown[ok]
+        return out, ok
+
+    def _coast_look_ahead(self, img, b, dirx, reported):
+        """``params.coast_look_ahead``: each expected box in ``b`` (``x, y, w, h``) shifted by
+        ``coast_look_ahead`` times its width in the direction ``dirx`` (+1 right, -1 left) and grown
+        from the shifted box's middle half; a grown box is good when it was found, stands out
+        (``min_contrast``), its area lies within ``coast_size_ratio`` of the expected box's either
+        way, its centre lies within the expected box's rows and between the expected and the shifted
+        box's left and right sides, it is not a line (``max_aspect``) and it covers no more than a
+        quarter of one of ``reported``.  Returns ``(boxes, ok)``."""
+        p = self.params
+        b = np.asarray(b, np.float64).reshape(-1, 4)
+        out = b.copy()
+        if not len(b):
+            return out, np.zeros(0, bool)
+        e = b.copy()
+        e[:, 0] += np.asarray(dirx, np.float64) * float(p.coast_look_ahead) * b[:, 2]
+        cores = np.stack([e[:, 0] + 0.25 * e[:, 2], e[:, 1] + 0.25 * e[:, 3], 0.5 * e[:, 2], 0.5 * e[:, 3]], axis=1)
+        grown, contrast, found = grow_boxes(img, e, cores, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
+                                            return_found=True, wide_grow_px=p.grow_wide_px,
+                                            waterline_frac=p.waterline_frac, top_frac=self._top_frac)
+        ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
+        gx, gy = grown[:, 0] + 0.5 * grown[:, 2], grown[:, 1] + 0.5 * grown[:, 3]
+        lo, hi = np.minimum(b[:, 0], e[:, 0]), np.maximum(b[:, 0] + b[:, 2], e[:, 0] + e[:, 2])
+        ok = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
+              & (ratio >= 1.0 / p.coast_size_ratio) & (gx >= lo) & (gx <= hi)
+              & (gy >= b[:, 1]) & (gy <= b[:, 1] + b[:, 3]))
         if p.max_aspect > 0:
             ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
         if len(reported) and ok.any():
