@@ -2242,6 +2242,20 @@ class ClusterParams:
     many seconds of the loss; not run on the tuning sequences (``pan`` 5: the tug's identity, lost at
     the left edge, waited 13 s there and took the sailboat that came in at the same edge).
 
+    Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
+    found at its expected box is looked at once more, grown from the middle half of that box
+    extended upward by this many times its height (the expected box was the hull alone, and the
+    boat's body stands above it: a faint sailboat's sail over its 6 x 7 px hull on ``pan`` 58). The
+    grown box is reported (outcome "up") and followed when it was found, stands out
+    (``min_contrast``), holds at least half of the expected box, its area lies within
+    ``coast_size_ratio`` of the extended box's either way, it is no line (``max_aspect``) and covers no
+    more than a quarter of one of this frame's reports.  ``coast_look_ahead`` (0: off): a coast still
+    not found is grown once more from the expected box shifted by this many box widths in the
+    direction of the identity's own horizontal velocity when lost (the expected box lags behind a
+    boat whose own motion it does not follow: ``pan`` 44's ferry, 6-9 px behind at 40 px/s);
+    reported (outcome "ahead") and followed under the same checks, with the grown box's centre
+    within the rows of the expected box and between it and the shifted box.
+
     Session 22 (helper H2, one identity per boat on ``ir``): ``relink_dy_h`` (0: off): a lost identity
     is not relinked (:meth:`FeatureClusterer._relink`) to a new cluster whose box bottom (the
     waterline) lies more than this many times the taller of the two boxes' heights above or below the
@@ -2572,6 +2586,8 @@ class ClusterParams:
     grow_core_retry_ir: bool = True
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
+    coast_look_up: float = 0.0
+    coast_look_ahead: float = 0.0
 
     relink_jump_iou: float = 0.5
     relink_side_h_up: float = 0.0
@@ -4086,6 +4102,27 @@ class FeatureClusterer:
                          & (ratio <= p.coast_grow_up) & held)
             if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
                 good &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
+            up = np.zeros(len(sel), bool)
+            if p.coast_look_up > 0 and not (found | good).all():
+                # session 24 (H10): not found at the expected box (the hull alone): the box extended up
+                miss = np.flatnonzero(~found & ~good)
+                g3, ok3 = self._coast_look_up(img, b[miss], reported)
+                grown[miss[ok3]] = g3[ok3]
+                found[miss[ok3]] = True
+                contrast[miss[ok3]] = np.inf
+                good[miss[ok3]] = True
+                up[miss[ok3]] = True
+            ahead = np.zeros(len(sel), bool)
+            vx = vel[sel, 0]
+            if p.coast_look_ahead > 0 and not (found | good | (np.abs(vx) < 1.0)).all():
+                # session 24 (H10): not found where the camera carried the box: looked at ahead of it
+                miss = np.flatnonzero(~found & ~good & (np.abs(vx) >= 1.0))
+                g4, ok4 = self._coast_look_ahead(img, b[miss], np.sign(vx[miss]), reported)
+                grown[miss[ok4]] = g4[ok4]
+                found[miss[ok4]] = True
+                contrast[miss[ok4]] = np.inf
+                good[miss[ok4]] = True
+                ahead[miss[ok4]] = True
             searched = np.zeros(len(sel), bool)
             if p.coast_search > 0 and not good.all():  # session 22: look around the expected place
                 bad = np.flatnonzero(~good)
@@ -4099,6 +4136,8 @@ class FeatureClusterer:
             why[sel] = np.where(~found, "not found", np.where(~(contrast >= p.min_contrast), "contrast",
                                                               np.where(good, "reported", "size")))
             why[sel[searched]] = "searched"  # coast_search: reported at a box found around the expected place
+            why[sel[up]] = "up"  # coast_look_up: reported at the box grown from the expected box extended up
+            why[sel[ahead]] = "ahead"  # coast_look_ahead: reported at the box grown ahead of the expected box
             lbs[sel] = np.where(good[:, None], grown, b)
             if p.coast_follow:
                 for j in np.flatnonzero(good):
@@ -4238,6 +4277,80 @@ class FeatureClusterer:
         row = np.maximum(*(np.asarray(self._horizon.row_at(x), np.float64)
                            for x in (boxes[:, 0], boxes[:, 0] + boxes[:, 2])))
         return boxes[:, 1] + boxes[:, 3] > row + self.params.coast_search_below_px * self._zoom
+
+    def _coast_look_up(self, img, b, reported):
+        """``params.coast_look_up``: each expected box in ``b`` (``x, y, w, h``) extended upward by
+        ``coast_look_up`` times its height and grown from that box's middle half; a grown box is
+        good when it was found, stands out (``min_contrast``), holds at least half of the expected
+        box, its area lies within ``coast_size_ratio`` of the extended box's either way, it is not a
+        line (``max_aspect``) and it covers no more than a quarter of one of ``reported``.
+        Returns ``(boxes, ok)``."""
+        p = self.params
+        b = np.asarray(b, np.float64).reshape(-1, 4)
+        out = b.copy()
+        if not len(b):
+            return out, np.zeros(0, bool)
+        u = float(p.coast_look_up)
+        e = np.stack([b[:, 0], b[:, 1] - u * b[:, 3], b[:, 2], (1.0 + u) * b[:, 3]], axis=1)
+        e[:, 3] -= np.maximum(-e[:, 1], 0.0)  # clipped at the image's top
+        e[:, 1] = np.maximum(e[:, 1], 0.0)
+        cores = np.stack([e[:, 0] + 0.25 * e[:, 2], e[:, 1] + 0.25 * e[:, 3], 0.5 * e[:, 2], 0.5 * e[:, 3]], axis=1)
+        grown, contrast, found = grow_boxes(img, e, cores, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
+                                            return_found=True, wide_grow_px=p.grow_wide_px,
+                                            waterline_frac=p.waterline_frac, top_frac=self._top_frac)
+        ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(e[:, 2] * e[:, 3], 1e-9)
+        ix = np.maximum(np.minimum(b[:, 0] + b[:, 2], grown[:, 0] + grown[:, 2]) - np.maximum(b[:, 0], grown[:, 0]), 0)
+        iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
+        ok = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
+              & (ratio >= 1.0 / p.coast_size_ratio) & (ix * iy >= 0.5 * b[:, 2] * b[:, 3]))
+        if p.max_aspect > 0:
+            ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
+        if len(reported) and ok.any():
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+            ok &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+        out[ok] = grown[ok]
+        return out, ok
+
+    def _coast_look_ahead(self, img, b, dirx, reported):
+        """``params.coast_look_ahead``: each expected box in ``b`` (``x, y, w, h``) shifted by
+        ``coast_look_ahead`` times its width in the direction ``dirx`` (+1 right, -1 left) and grown
+        from the shifted box's middle half; a grown box is good when it was found, stands out
+        (``min_contrast``), its area lies within ``coast_size_ratio`` of the expected box's either
+        way, its centre lies within the expected box's rows and between the expected and the shifted
+        box's left and right sides, it is not a line (``max_aspect``) and it covers no more than a
+        quarter of one of ``reported``.  Returns ``(boxes, ok)``."""
+        p = self.params
+        b = np.asarray(b, np.float64).reshape(-1, 4)
+        out = b.copy()
+        if not len(b):
+            return out, np.zeros(0, bool)
+        e = b.copy()
+        e[:, 0] += np.asarray(dirx, np.float64) * float(p.coast_look_ahead) * b[:, 2]
+        cores = np.stack([e[:, 0] + 0.25 * e[:, 2], e[:, 1] + 0.25 * e[:, 3], 0.5 * e[:, 2], 0.5 * e[:, 3]], axis=1)
+        grown, contrast, found = grow_boxes(img, e, cores, grow=max(p.grow_box, 0.5), peak_frac=p.grow_peak_frac,
+                                            return_found=True, wide_grow_px=p.grow_wide_px,
+                                            waterline_frac=p.waterline_frac, top_frac=self._top_frac)
+        ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
+        gx, gy = grown[:, 0] + 0.5 * grown[:, 2], grown[:, 1] + 0.5 * grown[:, 3]
+        lo, hi = np.minimum(b[:, 0], e[:, 0]), np.maximum(b[:, 0] + b[:, 2], e[:, 0] + e[:, 2])
+        ok = (found & (contrast >= p.min_contrast) & (ratio <= p.coast_size_ratio)
+              & (ratio >= 1.0 / p.coast_size_ratio) & (gx >= lo) & (gx <= hi)
+              & (gy >= b[:, 1]) & (gy <= b[:, 1] + b[:, 3]))
+        if p.max_aspect > 0:
+            ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
+        if len(reported) and ok.any():
+            r = np.asarray(reported, np.float64).reshape(-1, 4)
+            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
+            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
+            ok &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+        out[ok] = grown[ok]
+        return out, ok
 
     def _coast_search(self, img, b, reported):
         """``params.coast_search``: each expected box in ``b`` (``x, y, w, h``) grown again from cores
