@@ -449,6 +449,7 @@ class AffinityClusters:
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
         gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
+        cut_dv: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -466,6 +467,7 @@ class AffinityClusters:
         self.gate_chain = bool(gate_chain)
         self.split_origin_dv = float(split_origin_dv)
         self.split_origin_s = float(split_origin_s)
+        self.cut_dv = float(cut_dv)
         self.reset()
 
     def reset(self) -> None:
@@ -594,6 +596,16 @@ class AffinityClusters:
         lab = self._label[slots].copy()
         lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
         chain = None
+        if self.cut_dv > 0 and velocity is not None and len(li):
+            # session 24 (helper H11, ``ClusterParams.graph_cut_dv_px_s``): a link whose two ends
+            # both have a known velocity more than ``cut_dv`` apart joins nothing this frame, also
+            # inside one cluster, so a cluster holding two boats that move apart falls into its
+            # connected components (the paper's split keeps the identity on the larger part)
+            vsub = np.asarray(velocity, np.float64)[sub]
+            with np.errstate(invalid="ignore"):
+                dl = np.hypot(*(vsub[li] - vsub[lj]).T)
+            keep = ~(dl > self.cut_dv)  # NaN (unknown): kept
+            li, lj = li[keep], lj[keep]
         if max_dv_px_s > 0 and velocity is not None and len(li):
             vsub = np.asarray(velocity, np.float64)[sub]
             keep = self._velocity_gate(lab[sub], vsub, li, lj, t_s, max_dv_px_s, min_age_s)
@@ -2577,6 +2589,7 @@ class ClusterParams:
     relink_side_h_up: float = 0.0
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
+    graph_cut_dv_px_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -2609,7 +2622,8 @@ class FeatureClusterer:
         self._ir = False  # this frame is infrared (``update``'s ``ir``)
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
-                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
+                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s,
+                                      p.graph_cut_dv_px_s)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
