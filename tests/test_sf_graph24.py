@@ -47,3 +47,26 @@ def test_off_by_default_and_reaches_the_graph():
     assert ClusterParams().graph_cut_dv_px_s == 0.0
     assert FeatureClusterer().graph.cut_dv == 0.0
     assert FeatureClusterer(ClusterParams(graph_cut_dv_px_s=5.0)).graph.cut_dv == 5.0
+
+
+def test_cut_parts_keeps_a_noisy_boat_and_still_splits_two_boats():
+    # one boat of three features, the middle one's velocity 7 px/s off: the plain cut leaves no cluster
+    def noisy(**kw):
+        g = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=4.0, **kw)
+        slots, ids = np.arange(3), np.arange(10, 13)
+        vel = np.array([[0.0, 0.0], [7.0, 0.0], [0.0, 0.0]])
+        e = np.array([(0, 1), (1, 2)])
+        return [g.step(slots, ids, e[:, 0], e[:, 1], 0.1 * k, velocity=vel)[0] for k in range(6)]
+    assert all((lab == -1).all() for lab in noisy(cut_dv=6.0))
+    assert [x.tolist() for x in noisy(cut_dv=6.0, cut_parts=True)] == [x.tolist() for x in noisy()]
+    assert (noisy()[-1] >= 0).all()
+    # two boats of 3 and 4 features: the parts are big enough, the cut holds
+    g = AffinityClusters(alpha=3.0, w_link=1.0, w_cap=4.0, cut_dv=4.0, cut_parts=True)
+    slots, ids = np.arange(7), np.arange(10, 17)
+    vel = np.array([[6.0, 0.0]] * 3 + [[-3.0, 0.0]] * 4)
+    e = np.array([(0, 1), (1, 2), (3, 4), (4, 5), (5, 6), (2, 3)])
+    for k in range(6):
+        lab = g.step(slots, ids, e[:, 0], e[:, 1], 0.1 * k, velocity=vel)[0]
+    assert len(set(lab[:3].tolist())) == 1 and len(set(lab[3:].tolist())) == 1 and lab[0] != lab[3]
+    assert ClusterParams().graph_cut_parts is False
+    assert FeatureClusterer(ClusterParams(graph_cut_dv_px_s=6.0, graph_cut_parts=True)).graph.cut_parts is True
