@@ -449,6 +449,7 @@ class AffinityClusters:
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
         gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
+        cut_dv: float = 0.0, cut_parts: bool = False,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -466,6 +467,8 @@ class AffinityClusters:
         self.gate_chain = bool(gate_chain)
         self.split_origin_dv = float(split_origin_dv)
         self.split_origin_s = float(split_origin_s)
+        self.cut_dv = float(cut_dv)
+        self.cut_parts = bool(cut_parts)
         self.reset()
 
     def reset(self) -> None:
@@ -594,6 +597,26 @@ class AffinityClusters:
         lab = self._label[slots].copy()
         lab[t_s - self._label_t[slots] > self.label_memory_s] = -1
         chain = None
+        if self.cut_dv > 0 and velocity is not None and len(li):
+            # session 24 (helper H11, ``ClusterParams.graph_cut_dv_px_s``): a link whose two ends
+            # both have a known velocity more than ``cut_dv`` apart joins nothing this frame, also
+            # inside one cluster, so a cluster holding two boats that move apart falls into its
+            # connected components (the paper's split keeps the identity on the larger part)
+            vsub = np.asarray(velocity, np.float64)[sub]
+            with np.errstate(invalid="ignore"):
+                dl = np.hypot(*(vsub[li] - vsub[lj]).T)
+            cut = dl > self.cut_dv  # NaN (unknown): kept
+            if self.cut_parts and cut.any():
+                # ``graph_cut_parts``: a cut holds only where both its ends fall in parts of at least
+                # ``min_features`` features (two boats); a cut that leaves a smaller piece (a boat
+                # whose features' velocities are noisy) is undone
+                m = len(sub)
+                g = coo_matrix((np.ones(int((~cut).sum())), (li[~cut], lj[~cut])), shape=(m, m))
+                _, cc0 = connected_components(g, directed=False)
+                sz = np.bincount(cc0)
+                cut &= (sz[cc0[li]] >= self.min_features) & (sz[cc0[lj]] >= self.min_features)
+            keep = ~cut
+            li, lj = li[keep], lj[keep]
         if max_dv_px_s > 0 and velocity is not None and len(li):
             vsub = np.asarray(velocity, np.float64)[sub]
             keep = self._velocity_gate(lab[sub], vsub, li, lj, t_s, max_dv_px_s, min_age_s)
@@ -2427,7 +2450,14 @@ class ClusterParams:
     see :meth:`FeatureClusterer._wake_below_members`); ``box_wake_top`` (False): below the topmost
     box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
     frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
-    rule on IR lost METE on the tuning ``ir`` sequences)."""
+    rule on IR lost METE on the tuning ``ir`` sequences).
+    Session 24 (helper H11, two boats in one graph cluster on ``ir``): ``graph_cut_dv_px_s`` (0: off): a
+    graph link whose two ends' known velocities differ by more than this (px/s) joins nothing this
+    frame, also inside one cluster, so a cluster holding two boats that move apart falls into its
+    connected components (the paper's split: the larger part keeps the identity); ``graph_cut_parts``
+    (False): with it, a cut holds only where both ends fall in parts of at least ``min_features``
+    features (a boat whose features' velocities are noisy is not broken up; see
+    :meth:`AffinityClusters.step`)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2593,6 +2623,8 @@ class ClusterParams:
     relink_side_h_up: float = 0.0
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
+    graph_cut_dv_px_s: float = 0.0
+    graph_cut_parts: bool = False
 
 
 class FeatureClusterer:
@@ -2625,7 +2657,8 @@ class FeatureClusterer:
         self._ir = False  # this frame is infrared (``update``'s ``ir``)
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
-                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s)
+                                      p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s,
+                                      p.graph_cut_dv_px_s, p.graph_cut_parts)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
