@@ -2382,6 +2382,10 @@ class ClusterParams:
     this factor (either way; not for an identity lost at the image's side edge, whose box is clipped, nor
     for boxes under 2 px): on ``ir`` 8 at 15.5 s and ``ir`` 7 at 18.0 s the sailboat's identity (a box
     14 x 18 and 5 x 8 px) went to the far cargo ship's new cluster (53 x 11, 52 x 13 px), x6.2 and x6.4.
+    ``relink_young_after_s`` (0: off; session 24, helper H12): ``relink_young_s``'s young cluster takes
+    the lost identity only if it was born at least this many seconds after the lost identity's own
+    cluster (a boat's new cluster is born after its old one; two boats born together, moving apart,
+    do not exchange identities when one is lost).
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2577,6 +2581,7 @@ class ClusterParams:
     relink_side_h_up: float = 0.0
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
+    relink_young_after_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -3149,7 +3154,8 @@ class FeatureClusterer:
             for i in new:
                 self._born.setdefault(int(cids[i]), t)
             if len(self._born) > 4 * max(len(cids), 16):  # bounded memory
-                self._born = {k: tb for k, tb in self._born.items() if t - tb <= p.relink_young_s + 1.0}
+                keep = p.relink_young_s + max(p.relink_young_after_s, 0.0) + 1.0  # (a lost identity's birth, too)
+                self._born = {k: tb for k, tb in self._born.items() if t - tb <= keep}
         if p.split_follow_box > 0 and new and self._prev_boxes:
             # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
             for i in range(len(cids)):
@@ -3586,6 +3592,10 @@ class FeatureClusterer:
             if young is not None:
                 if r != int(cids[i]) or t_now - self._born.get(r, -np.inf) > self.params.relink_young_s + 1e-9:
                     continue  # only a young cluster under its own identity
+                if self.params.relink_young_after_s > 0 and (
+                        self._born.get(r, -np.inf) - self._born.get(k, -np.inf)
+                        < self.params.relink_young_after_s - 1e-9):
+                    continue  # session 24 (H12): born with the lost one (not after it): another boat
                 o = -gap_fn(b, lb)  # the nearer, the higher
             else:
                 iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
