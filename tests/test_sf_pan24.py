@@ -66,3 +66,35 @@ def test_born_after_the_lost_one_still_takes_it():
 def test_young_off_makes_the_new_step_inert():
     got, lost_id, kept_id, c = _run(0.0, relink_young_s=0.0, relink_young_after_s=0.3)
     assert got == kept_id and lost_id in c._lost
+
+
+# relink_own_speed_k: a slow boat's relink gate grows with its own speed (session 24, H12)
+def _slow_run(gap, **kw):
+    """A slow cluster (3 px/s) from 0 s, lost at 0.5 s; a new cluster ``gap`` px right of its box at 2.5 s
+    (lost 2.0 s: the default gate 20 + 10 x 2 = 40 px, the own-speed gate 20 + max(2, 1 x 3) x 2 = 26 px).
+    Returns the identity reported at 2.5 s and the slow one's."""
+    c = FeatureClusterer(ClusterParams(**{**OFF, "relink_young_s": 0.0, **kw}))
+    v = [[3.0, 0.0]] * 2
+    a_id = None
+    for fi, t in enumerate((0.0, 0.1, 0.2, 0.3, 0.4)):
+        _, tr = c.update(snap(A, v, t, fi, ids=[1, 2]))
+        a_id = int(tr.ids[0])
+    c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.5, 5, []))
+    x0 = 120 + 2 + gap + 2
+    pts = [[x0, 60], [x0 + 20, 70]]
+    _, tr = c.update(snap(pts, v, 2.5, 6, ids=[7, 8]))
+    assert len(tr) == 1
+    return int(tr.ids[0]), a_id
+
+
+def test_own_speed_off_by_default_and_the_default_gate_relinks_at_30_px():
+    assert ClusterParams().relink_own_speed_k == 0.0
+    got, a_id = _slow_run(30.0)
+    assert got == a_id
+
+
+def test_own_speed_gate_refuses_a_slow_boats_far_cluster_and_keeps_a_near_one():
+    got, a_id = _slow_run(30.0, relink_own_speed_k=1.0, relink_own_speed_floor=2.0)
+    assert got != a_id
+    got, a_id = _slow_run(16.0, relink_own_speed_k=1.0, relink_own_speed_floor=2.0)
+    assert got == a_id

@@ -2385,7 +2385,10 @@ class ClusterParams:
     ``relink_young_after_s`` (0: off; session 24, helper H12): ``relink_young_s``'s young cluster takes
     the lost identity only if it was born at least this many seconds after the lost identity's own
     cluster (a boat's new cluster is born after its old one; two boats born together, moving apart,
-    do not exchange identities when one is lost).
+    do not exchange identities when one is lost).  ``relink_own_speed_k`` (0: off; H12): the relink
+    gate of a lost identity whose last velocity is known grows at ``min(relink_px_per_s,
+    max(relink_own_speed_floor, relink_own_speed_k * its speed))`` px/s instead of ``relink_px_per_s``
+    (a slow boat lost long is not given to a cluster hundreds of px away).
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2582,6 +2585,8 @@ class ClusterParams:
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
     relink_young_after_s: float = 0.0
+    relink_own_speed_k: float = 0.0
+    relink_own_speed_floor: float = 4.0
 
 
 class FeatureClusterer:
@@ -3199,11 +3204,15 @@ class FeatureClusterer:
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
         for i in new:
-            for k, (tl, lb, _) in self._lost.items():
+            for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
                     continue
                 d = gap_px(boxes[i], lb)
-                gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                rate = p.relink_px_per_s
+                if p.relink_own_speed_k > 0 and vl is not None and np.all(np.isfinite(vl)):
+                    # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
+                    rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
+                gate = p.relink_px + rate * (t - tl) * self._zoom
                 alt = self._lost_alt.get(k)
                 if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
                     d_alt = gap_px(boxes[i], alt[1])
