@@ -2419,6 +2419,13 @@ class ClusterParams:
     this factor (either way; not for an identity lost at the image's side edge, whose box is clipped, nor
     for boxes under 2 px): on ``ir`` 8 at 15.5 s and ``ir`` 7 at 18.0 s the sailboat's identity (a box
     14 x 18 and 5 x 8 px) went to the far cargo ship's new cluster (53 x 11, 52 x 13 px), x6.2 and x6.4.
+    ``relink_young_after_s`` (0: off; session 24, helper H12): ``relink_young_s``'s young cluster takes
+    the lost identity only if it was born at least this many seconds after the lost identity's own
+    cluster (a boat's new cluster is born after its old one; two boats born together, moving apart,
+    do not exchange identities when one is lost).  ``relink_own_speed_k`` (0: off; H12): the relink
+    gate of a lost identity whose last velocity is known grows at ``min(relink_px_per_s,
+    max(relink_own_speed_floor, relink_own_speed_k * its speed))`` px/s instead of ``relink_px_per_s``
+    (a slow boat lost long is not given to a cluster hundreds of px away).
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2618,13 +2625,15 @@ class ClusterParams:
     coast_edge_s: float = 8.0
     coast_look_up: float = 0.0
     coast_look_ahead: float = 0.0
-
     relink_jump_iou: float = 0.5
     relink_side_h_up: float = 0.0
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
     graph_cut_dv_px_s: float = 0.0
     graph_cut_parts: bool = False
+    relink_young_after_s: float = 0.0
+    relink_own_speed_k: float = 0.0
+    relink_own_speed_floor: float = 4.0
 
 
 class FeatureClusterer:
@@ -3198,7 +3207,8 @@ class FeatureClusterer:
             for i in new:
                 self._born.setdefault(int(cids[i]), t)
             if len(self._born) > 4 * max(len(cids), 16):  # bounded memory
-                self._born = {k: tb for k, tb in self._born.items() if t - tb <= p.relink_young_s + 1.0}
+                keep = p.relink_young_s + max(p.relink_young_after_s, 0.0) + 1.0  # (a lost identity's birth, too)
+                self._born = {k: tb for k, tb in self._born.items() if t - tb <= keep}
         if p.split_follow_box > 0 and new and self._prev_boxes:
             # session 23: a box that jumps away while a new cluster is born on it: the identity stays with the box
             for i in range(len(cids)):
@@ -3242,11 +3252,15 @@ class FeatureClusterer:
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
         for i in new:
-            for k, (tl, lb, _) in self._lost.items():
+            for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
                     continue
                 d = gap_px(boxes[i], lb)
-                gate = p.relink_px + p.relink_px_per_s * (t - tl) * self._zoom
+                rate = p.relink_px_per_s
+                if p.relink_own_speed_k > 0 and vl is not None and np.all(np.isfinite(vl)):
+                    # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
+                    rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
+                gate = p.relink_px + rate * (t - tl) * self._zoom
                 alt = self._lost_alt.get(k)
                 if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
                     d_alt = gap_px(boxes[i], alt[1])
@@ -3635,6 +3649,10 @@ class FeatureClusterer:
             if young is not None:
                 if r != int(cids[i]) or t_now - self._born.get(r, -np.inf) > self.params.relink_young_s + 1e-9:
                     continue  # only a young cluster under its own identity
+                if self.params.relink_young_after_s > 0 and (
+                        self._born.get(r, -np.inf) - self._born.get(k, -np.inf)
+                        < self.params.relink_young_after_s - 1e-9):
+                    continue  # session 24 (H12): born with the lost one (not after it): another boat
                 o = -gap_fn(b, lb)  # the nearer, the higher
             else:
                 iw = min(b[0] + b[2], lb[0] + lb[2]) - max(b[0], lb[0])
