@@ -36,7 +36,7 @@ def run(moves, boats=None, **kw):
     the content by each of ``moves`` (px along x, one per frame); ``boats`` (one per frame, default
     all True): whether the hull is drawn.  Returns the clusterer, the hull's identity and the tracks
     of each frame after the loss."""
-    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0)
+    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)  # H10's looks off
     base.update(kw)
     c = FeatureClusterer(ClusterParams(**base))
     tr = None

@@ -28,7 +28,7 @@ def sea(seed, boat=True, line=False):
 
 def coast_once(img, reported=None, **kw):
     """One lost identity (reported 1 s, lost 0.2 s ago at ``HULL_BOX``) coasted in one frame."""
-    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0)
+    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0, coast_look_ahead=0.0)  # the look up alone
     base.update(kw)
     c = FeatureClusterer(ClusterParams(**base))
     c._birth[7] = 0.0
@@ -39,9 +39,9 @@ def coast_once(img, reported=None, **kw):
     return c, ids, boxes, c.coast_log[-1][3]
 
 
-def test_off_by_default_and_off_the_hull_alone_is_not_found():
-    assert ClusterParams().coast_look_up == 0.0
-    c, ids, boxes, why = coast_once(sea(1))
+def test_on_by_default_since_session_24_and_off_the_hull_alone_is_not_found():
+    assert ClusterParams().coast_look_up == 1.0  # the lead's decision W (0: off)
+    c, ids, boxes, why = coast_once(sea(1), coast_look_up=0.0)
     assert len(ids) == 0 and why == "not found"
     assert c._coast_end.get(7) == 1.0  # the coast ended (no retry here)
 
@@ -96,7 +96,7 @@ def ferry_sea(seed, boat=True):
 def coast_ahead(img, vx, lag=-17.0, reported=None, **kw):
     """One lost identity whose expected box lies ``-lag`` px behind the ferry (to its left when the
     lag is negative), lost 0.2 s ago with its own velocity ``vx`` px/s, coasted in one frame."""
-    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0)
+    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0, coast_look_up=0.0)  # the look ahead alone
     base.update(kw)
     c = FeatureClusterer(ClusterParams(**base))
     c._birth[7] = 0.0
@@ -108,9 +108,9 @@ def coast_ahead(img, vx, lag=-17.0, reported=None, **kw):
     return c, ids, boxes, c.coast_log[-1][3]
 
 
-def test_look_ahead_off_by_default_and_off_the_lagging_box_is_not_found():
-    assert ClusterParams().coast_look_ahead == 0.0
-    _, ids, _, why = coast_ahead(ferry_sea(1), 40.0)
+def test_look_ahead_on_by_default_since_session_24_and_off_the_lagging_box_is_not_found():
+    assert ClusterParams().coast_look_ahead == 0.5  # the lead's decision W (0: off)
+    _, ids, _, why = coast_ahead(ferry_sea(1), 40.0, coast_look_ahead=0.0)
     assert len(ids) == 0 and why == "not found"
 
 

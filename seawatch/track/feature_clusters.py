@@ -2377,7 +2377,8 @@ class ClusterParams:
     Session 24: on by default since session 24 (the lead's decision U3): helper H7's ``coast_edge`` 6
     with ``coast_edge_s`` 8 and helper H5's ``coast_grow_up`` 6 (session 23), and helper H8's
     ``box_wake_below_px`` 5 with ``top_min_px`` 2; then (decision V) helper H9's ``relink_jump_iou`` 0.5,
-    ``relink_young_s`` 1 and ``relink_aspect_ratio`` 6 (the off value of each is 0).
+    ``relink_young_s`` 1 and ``relink_aspect_ratio`` 6; then (decision W, round 2) helper H10's
+    ``coast_look_up`` 1 with ``coast_look_ahead`` 0.5 (the off value of each is 0).
     Session 23 round 2: on by default since session 23 (the lead's decision U2): helper H4's
     ``relink_side_h_ratio`` 3 with ``relink_undo_hand_over``, and helper H6's ``grow_core_q_ir`` 0.4
     with ``grow_core_retry_ir`` (the off values below are the fields' old defaults).
@@ -2623,8 +2624,8 @@ class ClusterParams:
     grow_core_retry_ir: bool = True
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
-    coast_look_up: float = 0.0
-    coast_look_ahead: float = 0.0
+    coast_look_up: float = 1.0
+    coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
     relink_side_h_up: float = 0.0
     relink_young_s: float = 1.0
