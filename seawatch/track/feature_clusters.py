@@ -1406,6 +1406,20 @@ def _core_quantiles(k, v, n, q, lo, hi):
     return lo, hi
 
 
+def _covers_a_report(boxes, reported, frac=0.25) -> np.ndarray:
+    """Per box in ``boxes`` (``x, y, w, h``): whether it covers more than ``frac`` of the area of one
+    of the ``reported`` boxes (a boat reported in this frame, so not the one looked for)."""
+    g = np.asarray(boxes, np.float64).reshape(-1, 4)
+    r = np.asarray(reported, np.float64).reshape(-1, 4)
+    if not len(g) or not len(r):
+        return np.zeros(len(g), bool)
+    jx = np.maximum(np.minimum(g[:, None, 0] + g[:, None, 2], r[None, :, 0] + r[None, :, 2])
+                    - np.maximum(g[:, None, 0], r[None, :, 0]), 0)
+    jy = np.maximum(np.minimum(g[:, None, 1] + g[:, None, 3], r[None, :, 1] + r[None, :, 3])
+                    - np.maximum(g[:, None, 1], r[None, :, 1]), 0)
+    return np.any(jx * jy > frac * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+
+
 def _inside_frac(a, b, x_only=False) -> float:
     """The fraction of box ``a``'s area (``x, y, w, h``; sides at least 1 px) that lies inside box ``b``
     (``x_only``: of its width inside ``b``'s columns)."""
@@ -4144,12 +4158,7 @@ class FeatureClusterer:
                 iy = np.maximum(np.minimum(b[:, 1] + b[:, 3], grown[:, 1] + grown[:, 3]) - np.maximum(b[:, 1], grown[:, 1]), 0)
                 held = ix * iy >= 0.8 * b[:, 2] * b[:, 3]
                 if len(reported):  # not onto a boat reported now (ir 7: a sailboat's coast grown onto the ferry)
-                    r = np.asarray(reported, np.float64).reshape(-1, 4)
-                    jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
-                                    - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
-                    jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
-                                    - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
-                    held &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+                    held &= ~_covers_a_report(grown, reported)
                 good |= (found & (contrast >= p.min_contrast) & (ratio > p.coast_size_ratio)
                          & (ratio <= p.coast_grow_up) & held)
             if p.coast_max_aspect and p.max_aspect > 0:  # a line (the horizon's texture), as for live reports
@@ -4275,12 +4284,7 @@ class FeatureClusterer:
         if p.coast_search_below_px > 0 and self._horizon is not None and good.any():
             good &= self._below_horizon(grown)
         if len(reported) and good.any():
-            r = np.asarray(reported, np.float64).reshape(-1, 4)
-            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
-                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
-            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
-                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
-            good &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+            good &= ~_covers_a_report(grown, reported)
         for j in np.flatnonzero(good):
             i = sel[j]
             ok[i] = True
@@ -4358,12 +4362,7 @@ class FeatureClusterer:
         if p.max_aspect > 0:
             ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
         if len(reported) and ok.any():
-            r = np.asarray(reported, np.float64).reshape(-1, 4)
-            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
-                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
-            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
-                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
-            ok &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+            ok &= ~_covers_a_report(grown, reported)
         out[ok] = grown[ok]
         return out, ok
 
@@ -4395,12 +4394,7 @@ class FeatureClusterer:
         if p.max_aspect > 0:
             ok &= ~(grown[:, 2] > p.max_aspect * np.maximum(grown[:, 3], 1e-9))
         if len(reported) and ok.any():
-            r = np.asarray(reported, np.float64).reshape(-1, 4)
-            jx = np.maximum(np.minimum(grown[:, None, 0] + grown[:, None, 2], r[None, :, 0] + r[None, :, 2])
-                            - np.maximum(grown[:, None, 0], r[None, :, 0]), 0)
-            jy = np.maximum(np.minimum(grown[:, None, 1] + grown[:, None, 3], r[None, :, 1] + r[None, :, 3])
-                            - np.maximum(grown[:, None, 1], r[None, :, 1]), 0)
-            ok &= ~np.any(jx * jy > 0.25 * np.maximum(r[None, :, 2] * r[None, :, 3], 1e-9), axis=1)
+            ok &= ~_covers_a_report(grown, reported)
         out[ok] = grown[ok]
         return out, ok
 
