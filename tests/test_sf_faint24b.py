@@ -26,17 +26,22 @@ def sea(seed, boat=True, line=False):
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def coast_once(img, reported=None, **kw):
-    """One lost identity (reported 1 s, lost 0.2 s ago at ``HULL_BOX``) coasted in one frame."""
-    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0, coast_look_ahead=0.0)  # the look up alone
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
+def _coast_lost(img, box, vel, reported, base, kw):
+    """One lost identity (7; reported 1 s, lost 0.2 s ago at ``box`` with velocity ``vel``) coasted
+    in one frame; returns (clusterer, ids, boxes, the coast's outcome)."""
+    c = FeatureClusterer(ClusterParams(**{**base, **kw}))
     c._birth[7] = 0.0
-    c._lost[7] = (1.0, HULL_BOX.copy(), None)
+    c._lost[7] = (1.0, box, vel)
     s = snap(np.zeros((0, 2)), np.zeros((0, 2)), 1.2, 12, [], shape=SHAPE)
     rep = np.zeros((0, 4)) if reported is None else np.asarray(reported, float).reshape(-1, 4)
     ids, boxes, _ = c._coast(s, rep, image=img)
     return c, ids, boxes, c.coast_log[-1][3]
+
+
+def coast_once(img, reported=None, **kw):
+    """One lost identity (reported 1 s, lost 0.2 s ago at ``HULL_BOX``) coasted in one frame."""
+    base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0, coast_look_ahead=0.0)  # the look up alone
+    return _coast_lost(img, HULL_BOX.copy(), None, reported, base, kw)
 
 
 def test_on_by_default_since_session_24_and_off_the_hull_alone_is_not_found():
@@ -97,15 +102,8 @@ def coast_ahead(img, vx, lag=-17.0, reported=None, **kw):
     """One lost identity whose expected box lies ``-lag`` px behind the ferry (to its left when the
     lag is negative), lost 0.2 s ago with its own velocity ``vx`` px/s, coasted in one frame."""
     base = dict(coast_s=5.0, coast_retry_s=0.0, coast_edge=0.0, coast_look_up=0.0)  # the look ahead alone
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
-    c._birth[7] = 0.0
     box = np.array([FERRY[0] + lag, FERRY[1], 20.0, 20.0])
-    c._lost[7] = (1.0, box, np.array([vx, 0.0]))
-    s = snap(np.zeros((0, 2)), np.zeros((0, 2)), 1.2, 12, [], shape=SHAPE)
-    rep = np.zeros((0, 4)) if reported is None else np.asarray(reported, float).reshape(-1, 4)
-    ids, boxes, _ = c._coast(s, rep, image=img)
-    return c, ids, boxes, c.coast_log[-1][3]
+    return _coast_lost(img, box, np.array([vx, 0.0]), reported, base, kw)
 
 
 def test_look_ahead_on_by_default_since_session_24_and_off_the_lagging_box_is_not_found():
