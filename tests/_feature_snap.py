@@ -23,3 +23,23 @@ def snap(xy, vel, t, fi, ids=None, h=None, slots=None, shape=(160, 240)):
         image_velocity=hist[:, -1], homography=np.eye(3) if h is None else h, dt_s=0.1, n_keypoints=n,
         n_matched=n, shape=shape,
     )
+
+
+def dark_box_sea(shape, box, seed, dx=0, boat=True):
+    """Grey sea (120, noise 2, seeded) of ``shape`` with a dark box (60) at ``box`` (x0, y0, x1, y1,
+    exclusive) moved ``dx`` px along x and cut by the image's edges (``boat`` False: none)."""
+    rng = np.random.default_rng(seed)
+    img = 120.0 + rng.normal(0.0, 2.0, shape)
+    if boat:
+        x0, y0, x1, y1 = box
+        a, b = max(x0 + dx, 0), min(x1 + dx, shape[1])
+        if a < b:
+            img[y0:y1, a:b] = 60.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def shift(dx):
+    """A camera homography that moves the image content ``dx`` px along x."""
+    h = np.eye(3)
+    h[0, 2] = dx
+    return h

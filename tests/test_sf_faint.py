@@ -3,7 +3,7 @@ out of the view) waits and is looked at again when the box comes back (``coast_o
 
 import numpy as np
 
-from _feature_snap import snap
+from _feature_snap import dark_box_sea, shift, snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 from seawatch.types import TrackState
 
@@ -13,21 +13,7 @@ BOAT = (100, 59, 112, 64)  # x0, y0, x1, y1 (exclusive) of the dark boat
 
 def sea(seed, boat=True, dx=0):
     """Grey sea (120, noise 2) with a dark boat (60) at ``BOAT`` moved ``dx`` px (off the image: none)."""
-    rng = np.random.default_rng(seed)
-    img = 120.0 + rng.normal(0.0, 2.0, SHAPE)
-    if boat:
-        x0, y0, x1, y1 = BOAT
-        a, b = max(x0 + dx, 0), min(x1 + dx, SHAPE[1])
-        if a < b:
-            img[y0:y1, a:b] = 60.0
-    return np.clip(img, 0, 255).astype(np.uint8)
-
-
-def shift(dx):
-    """A camera homography that moves the image content ``dx`` px along x."""
-    h = np.eye(3)
-    h[0, 2] = dx
-    return h
+    return dark_box_sea(SHAPE, BOAT, seed, dx=dx, boat=boat)
 
 
 def run(back_boat=True, out_frames=3, **kw):

@@ -4,7 +4,7 @@ carried it across) is reported with its identity, the part of it in view."""
 
 import numpy as np
 
-from _feature_snap import snap
+from _feature_snap import dark_box_sea, shift, snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 from seawatch.types import TrackState
 
@@ -14,21 +14,7 @@ HULL = (100, 60, 140, 70)  # x0, y0, x1, y1 (exclusive) of the dark hull, 40 x 1
 
 def sea(seed, dx=0, boat=True):
     """Grey sea (120, noise 2) with the dark hull (60) moved ``dx`` px (cut by the image's edges)."""
-    rng = np.random.default_rng(seed)
-    img = 120.0 + rng.normal(0.0, 2.0, SHAPE)
-    if boat:
-        x0, y0, x1, y1 = HULL
-        a, b = max(x0 + dx, 0), min(x1 + dx, SHAPE[1])
-        if a < b:
-            img[y0:y1, a:b] = 60.0
-    return np.clip(img, 0, 255).astype(np.uint8)
-
-
-def shift(dx):
-    """A camera homography that moves the image content ``dx`` px along x."""
-    h = np.eye(3)
-    h[0, 2] = dx
-    return h
+    return dark_box_sea(SHAPE, HULL, seed, dx=dx, boat=boat)
 
 
 def run(moves, boats=None, **kw):
