@@ -8,6 +8,7 @@ lost at the image's side edge is not relinked to a cluster taller than this many
 import numpy as np
 
 from _feature_snap import snap
+from test_sf_pan23 import _run
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 
@@ -90,7 +91,6 @@ def test_jump_never_gives_a_younger_identity():
 
 
 # relink_side_h_up: the setup of tests/test_sf_pan23.py (two boats left at the image's left edge)
-EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 OFF_S = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=30.0, coast_s=0.0,
              relink_px=200.0, relink_iou_tie=False, relink_view_px=0.0, relink_min_area=0.0,
              relink_height_zoom_min=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
@@ -98,32 +98,15 @@ OFF_S = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=
              relink_side_h_ratio=3.0, relink_undo_hand_over=False,
              box_wake_below_px=0.0,  # session 24's wake cut (on by default) would cut the two-point boxes
              relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0)  # off unless a test sets them
-SMALL = [[100, 120], [110, 124]]  # a small boat (box about 8 px tall)
-TALL = [[100, 40], [120, 64]]  # a tall boat (box about 28 px tall), above it
 NEW_LOW = [[20, 116], [30, 132]]  # a cluster about 20 px tall on the small boat's row (nearer its box)
 
 
 def _side_run(new_pts, **kw):
-    c = FeatureClusterer(ClusterParams(**{**OFF_S, **kw}))
-    vel = [[-20.0, 0.0]] * 4
-    pts = SMALL + TALL
-    ids = [1, 2, 3, 4]
-    c.update(snap(pts, vel, 0.0, 0, ids=ids))
-    _, tr = c.update(snap(pts, vel, 0.1, 1, ids=ids))
-    assert len(tr) == 2
-    byy = {int(i): b[1] for i, b in zip(tr.ids, tr.boxes)}
-    s_id = max(byy, key=byy.get)
-    t_id = min(byy, key=byy.get)
-    moved = [[x - 100, y] for x, y in pts]  # at the left edge
-    c.update(snap(moved, vel, 0.2, 2, ids=ids))
-    fi = 3
-    for t in (0.3, 0.4, 19.8, 19.9):
-        c.update(snap(*EMPTY, t, fi, ids=[]))
-        fi += 1
-    assert s_id in c._lost_side and t_id in c._lost_side
-    _, tr2 = c.update(snap(new_pts, [[-20.0, 0.0]] * 2, 20.0, fi, ids=[5, 6]))
-    assert len(tr2) == 1
-    return int(tr2.ids[0]), s_id, t_id, c
+    """tests/test_sf_pan23.py's two boats left at the image's left edge and lost; at 20 s one new
+    cluster on ``new_pts``.  Returns the new cluster's identity, the small and the tall boat's
+    identities, the clusterer."""
+    got, s_id, t_id, c = _run(new_pts, **{**OFF_S, **kw})
+    return got, s_id, t_id, c
 
 
 def test_side_h_up_off_takes_the_nearer_within_the_ratio():
