@@ -276,6 +276,41 @@ def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.n
     return ok[:n] | ok[n:]
 
 
+def _coast_foot(xy: np.ndarray, k: np.ndarray, n: int, boxes: np.ndarray, idx: np.ndarray, image,
+                horizon, zoom: float, p) -> np.ndarray:
+    """Which reported clusters are the foot of a coast (session 25, ``ClusterParams.foot_open_px``; 0:
+    off): all their members lie less than ``water_margin_px`` (times the zoom) under the horizon and
+    the sky does not reach down to the horizon ``foot_open_px`` (times the zoom) left of the box's left
+    edge nor as far right of its right edge (:func:`_far_open`'s test, with its ``far_sky_tol`` and
+    ``far_open_contrast``).  A ship far out has open sea beside it; the dark foot of a coast runs on.
+
+    ``xy`` (M, 2) the members, ``k`` (M,) each one's cluster (0..n-1), ``boxes`` (C, 4) the clusters
+    still reported, ``idx`` (C,) their cluster indices.  Returns (C,) bool."""
+    out = np.zeros(len(idx), bool)
+    if not len(idx) or not len(xy):
+        return out
+    row = np.asarray(horizon.row_at(xy[:, 0].astype(np.float64)), np.float64)
+    dy = np.where(np.isfinite(row), xy[:, 1] - row, np.inf)
+    deep = np.full(n, -np.inf)
+    np.maximum.at(deep, k, dy)
+    cand = np.flatnonzero(deep[idx] <= p.water_margin_px * zoom)
+    for c in cand:
+        b = boxes[c]
+        half = 0.5 * float(b[2])
+        q = _FootSide(p.foot_open_px + half / zoom, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
+        out[c] = not bool(_far_open(image, np.array([float(b[0]) + half]), horizon, zoom, q)[0])
+    return out
+
+
+@dataclass
+class _FootSide:
+    """The fields :func:`_far_open` reads, for :func:`_coast_foot`'s box-wide distance."""
+    far_open_px: float
+    far_sky_tol: float
+    far_open_contrast: float
+    water_margin_px: float
+
+
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
@@ -2623,6 +2658,7 @@ class ClusterParams:
     far_open_px: float = 30.0
     far_sky_tol: float = 8.0
     far_open_contrast: float = 20.0
+    foot_open_px: float = 0.0
     relink_dy_px_per_s: float = 1.2
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
@@ -3988,6 +4024,12 @@ class FeatureClusterer:
                 keep_c = ok
             else:  # a mask over the clusters, or the indices kept so far
                 keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
+        if p.foot_open_px > 0 and image is not None and self._horizon is not None and len(cids):
+            # a cluster wholly inside the water margin with no open sea beside it: the foot of a coast
+            idx = np.arange(n) if keep_c is None else (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)
+            ok = ~_coast_foot(xy, k, n, boxes, idx, image, self._horizon, self._zoom, p)
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            keep_c = idx[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
             rv = None
             if p.merge_gap_h > 0 or p.merge_keep > 0 or p.merge_id_dv_px_s > 0:
