@@ -2514,7 +2514,15 @@ class ClusterParams:
     connected components (the paper's split: the larger part keeps the identity); ``graph_cut_parts``
     (False): with it, a cut holds only where both ends fall in parts of at least ``min_features``
     features (a boat whose features' velocities are noisy is not broken up; see
-    :meth:`AffinityClusters.step`)."""
+    :meth:`AffinityClusters.step`).
+
+    Session 25 (helper H13, the coast's foot on ``pan``): ``foot_open_px`` (0: off): a cluster whose
+    members all lie less than ``water_margin_px`` (times the zoom) under the horizon is not reported
+    when the sky does not reach down to the horizon this many pixels (times the zoom) left of its box's
+    left edge nor as far right of its right edge (:func:`_coast_foot`, with :func:`_far_open`'s test and
+    its ``far_sky_tol`` and ``far_open_contrast``): the foot of a coast, 4-7 px under the horizon,
+    whose features' noise speeds pass the speed floor and are joined by the moving rule (``pan``'s
+    largest clutter early in the sequence); a ship far out has open sea beside it."""
 
     dmax: float = 0.31
     alpha: float = 3.0
