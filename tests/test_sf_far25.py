@@ -87,3 +87,55 @@ def test_coast_foot_mask():
     assert _coast_foot(xy, k, 3, boxes, np.arange(3), _image(200), hz, 1.0, p).tolist() == [True, False, False]
     # only the clusters still reported (idx) are looked at, in their order
     assert _coast_foot(xy, k, 3, boxes[[1, 0]], np.array([1, 0]), _image(200), hz, 1.0, p).tolist() == [False, True]
+
+
+def _under_image(strip_x1=200, sky=200.0, sea=125.0, seed=4):
+    """240 x 320 grey image: sky down to the horizon (row 100), sea under it; a dark strip (105) wholly
+    under the horizon, rows 101-104, over columns 0 .. ``strip_x1`` (the coast's foot with the sky
+    reaching down to the horizon's row above it)."""
+    rng = np.random.default_rng(seed)
+    img = np.full((240, 320), sky)
+    img[100:] = sea
+    img[100:] += rng.normal(0, 2.0, img[100:].shape)
+    img[101:105, :strip_x1] = sea - 20.0
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def _reports_on(params, pts, img, frames=6):
+    c = FeatureClusterer(params)
+    hz = _Level(ROW)
+    return [c.update(_snap(k, pts), image=img, horizon=hz)[0].boxes.copy() for k in range(frames)]
+
+
+def test_foot_dark_off_by_default_and_strip_under_the_horizon():
+    assert ClusterParams().foot_dark == 0.0
+    img = _under_image(200)
+    # the sky reaches down to the horizon's row: the side test alone sees open sea and keeps the report
+    assert len(_reports_on(_params(foot_open_px=10.0), FOOT, img)[-1]) == 1
+    # the dark strip under the horizon on both sides: the coast's foot, not reported
+    assert all(len(b) == 0 for b in _reports_on(_params(foot_open_px=10.0, foot_dark=8.0), FOOT, img))
+    # foot_dark without foot_open_px does nothing
+    assert len(_reports_on(_params(foot_dark=8.0), FOOT, img)[-1]) == 1
+
+
+def test_foot_dark_open_sea_and_thermal_kept():
+    # open sea beside (no strip): reported
+    assert len(_reports_on(_params(foot_open_px=10.0, foot_dark=8.0), FOOT, _under_image(0))[-1]) == 1
+    # the strip ends at x 110: the right side (10 px past the box) lies on it, 30 px past it is open
+    assert len(_reports_on(_params(foot_open_px=10.0, foot_dark=8.0), FOOT, _under_image(110))[-1]) == 0
+    assert len(_reports_on(_params(foot_open_px=30.0, foot_dark=8.0), FOOT, _under_image(110))[-1]) == 1
+    # a thermal-like image (sky 120, sea 118: contrast under far_open_contrast 20): never the coast's foot
+    th = _under_image(200, sky=120.0, sea=118.0)
+    assert len(_reports_on(_params(foot_open_px=10.0, foot_dark=8.0, far_open_contrast=20.0), FOOT, th)[-1]) == 1
+
+
+def test_under_dark_mask():
+    from seawatch.track.feature_clusters import _under_dark
+
+    p = _params(foot_open_px=10.0, foot_dark=8.0)
+    hz = _Level(ROW)
+    x = np.array([50.0, 250.0, 1.0, 150.0])
+    # 50 and 150 on the strip, 250 open sea, 1 outside the image
+    assert _under_dark(_under_image(200), x, hz, 1.0, p, 8.0).tolist() == [True, False, False, True]
+    # a threshold above the strip's 20 grey levels: nothing is dark
+    assert not _under_dark(_under_image(200), x, hz, 1.0, p, 25.0).any()

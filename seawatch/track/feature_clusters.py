@@ -294,11 +294,60 @@ def _coast_foot(xy: np.ndarray, k: np.ndarray, n: int, boxes: np.ndarray, idx: n
     deep = np.full(n, -np.inf)
     np.maximum.at(deep, k, dy)
     cand = np.flatnonzero(deep[idx] <= p.water_margin_px * zoom)
+    dark = float(getattr(p, "foot_dark", 0.0))
     for c in cand:
         b = boxes[c]
         half = 0.5 * float(b[2])
         q = _FootSide(p.foot_open_px + half / zoom, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
-        out[c] = not bool(_far_open(image, np.array([float(b[0]) + half]), horizon, zoom, q)[0])
+        if dark <= 0:
+            out[c] = not bool(_far_open(image, np.array([float(b[0]) + half]), horizon, zoom, q)[0])
+            continue
+        d = q.far_open_px * zoom
+        xs = np.array([float(b[0]) + half - d, float(b[0]) + half + d])  # the two sides, as above
+        q0 = _FootSide(0.0, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
+        side = np.array([_far_open(image, xs[i:i + 1], horizon, zoom, q0)[0] for i in range(2)])
+        side &= ~_under_dark(image, xs, horizon, zoom, p, dark)
+        out[c] = not bool(side.any())
+    return out
+
+
+def _under_dark(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p, dark: float) -> np.ndarray:
+    """Whether a dark strip lies just under the horizon at each column ``x`` (session 25,
+    ``ClusterParams.foot_dark``): the rows 1-4 px (times the zoom) under the horizon are darker than
+    the sea 2-6 px (times the zoom) under the water margin by more than ``dark`` grey levels (7 columns
+    averaged); never where sky and sea differ by less than ``far_open_contrast`` (a thermal image) nor
+    outside the image.  The foot of a coast can lie wholly under the sea horizon's row, with the sky
+    reaching down to it; open sea under the horizon is as bright as the sea below, or brighter (haze).
+    Returns (N,) bool."""
+    img = np.asarray(image)
+    if img.ndim == 3 or img.dtype != np.uint8:
+        img = to_grey_u8(img)
+    h, w = img.shape[:2]
+    xs = np.round(np.asarray(x, np.float64)).astype(np.int64)
+    inside = (xs >= 3) & (xs < w - 3)
+    xs = np.clip(xs, 3, max(w - 4, 3))
+    row = np.asarray(horizon.row_at(xs.astype(np.float64)), np.float64)
+    inside &= np.isfinite(row)
+    r0 = np.floor(np.where(np.isfinite(row), row, 0.0)).astype(np.int64)
+    under = np.arange(int(np.floor(1 * zoom)), int(np.floor(4 * zoom)) + 1)
+    sky = np.arange(int(np.floor(-20 * zoom)), int(np.floor(-14 * zoom)) + 1)
+    sea = np.arange(int(np.floor((p.water_margin_px + 2) * zoom)), int(np.floor((p.water_margin_px + 6) * zoom)) + 1)
+    inside &= (r0 + sky[0] >= 0) & (r0 + sea[-1] < h)
+    out = np.zeros(len(xs), bool)
+    if not inside.any():
+        return out
+    lo = int(max(np.min(r0[inside] + sky[0]), 0))
+    hi = int(min(np.max(r0[inside] + sea[-1]) + 1, h))
+    strip = cv2.blur(img[lo:hi].astype(np.float32), (7, 1))
+
+    def rows(off):
+        rr = np.clip(r0[:, None] + off[None, :] - lo, 0, hi - lo - 1)
+        return np.median(strip[rr, xs[:, None]], axis=1)
+
+    sky_v, sea_v, under_v = rows(sky), rows(sea), rows(under)
+    out = inside & (sea_v - under_v > dark)
+    if p.far_open_contrast > 0:
+        out &= ~(np.abs(sky_v - sea_v) < p.far_open_contrast)
     return out
 
 
@@ -2667,6 +2716,7 @@ class ClusterParams:
     far_sky_tol: float = 8.0
     far_open_contrast: float = 20.0
     foot_open_px: float = 0.0
+    foot_dark: float = 0.0
     relink_dy_px_per_s: float = 1.2
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
