@@ -2571,7 +2571,11 @@ class ClusterParams:
     left edge nor as far right of its right edge (:func:`_coast_foot`, with :func:`_far_open`'s test and
     its ``far_sky_tol`` and ``far_open_contrast``): the foot of a coast, 4-7 px under the horizon,
     whose features' noise speeds pass the speed floor and are joined by the moving rule (``pan``'s
-    largest clutter early in the sequence); a ship far out has open sea beside it."""
+    largest clutter early in the sequence); a ship far out has open sea beside it.  ``foot_dark`` (0:
+    off; only with ``foot_open_px``): a side is open only where the rows 1-4 px (times the zoom) under
+    the horizon are also not darker than the sea under the margin by more than this many grey levels
+    (:func:`_under_dark`): the coast's foot can lie wholly under the horizon's row, the sky reaching
+    down to it."""
 
     dmax: float = 0.31
     alpha: float = 3.0
