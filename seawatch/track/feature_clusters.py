@@ -1986,6 +1986,35 @@ def appearance_distance(a, b, template_weight: float = 0.0) -> float:
     return dc + template_weight * dt
 
 
+def _limit_jump(box, pre, last, ratio):
+    """The grown ``box`` (``x, y, w, h``) no more than ``ratio`` times as wide and as tall as
+    ``last`` (the same cluster's grown box in the frame before, carried by the camera): along each
+    axis where it is larger, the side that reaches farther beyond ``pre`` (the box before the
+    growing) is moved in (then the other, where one is not enough); ``box`` itself when ``last``
+    is not finite or not positive (``ClusterParams.grow_jump``, session 25)."""
+    out = np.array(box, np.float64, copy=True)
+    if not (np.all(np.isfinite(last)) and last[2] > 0 and last[3] > 0):
+        return out
+    for a in (0, 1):
+        lim = ratio * last[2 + a]
+        ex = out[2 + a] - lim
+        if ex <= 0:
+            continue
+        lo, hi = out[a], out[a] + out[2 + a]
+        out_lo = pre[a] - lo  # how far the box reaches beyond the pre-grow box on each side
+        out_hi = hi - (pre[a] + pre[2 + a])
+        if out_lo >= out_hi:
+            cut = min(ex, max(out_lo, 0.0))
+            lo += cut
+            hi -= ex - cut
+        else:
+            cut = min(ex, max(out_hi, 0.0))
+            hi -= cut
+            lo += ex - cut
+        out[a], out[2 + a] = lo, hi - lo
+    return out
+
+
 def _carry_box(box, hmg):
     """Box ``x, y, w, h`` carried by the homography ``hmg`` (its two corners); the box itself when
     a corner maps to infinity."""
@@ -2473,6 +2502,11 @@ class ClusterParams:
     box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
     frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
     rule on IR lost METE on the tuning ``ir`` sequences).
+    Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
+    most this many times as wide (and as tall) as its grown box in the frame before (carried by the
+    camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
+    before the growing is cut back (:func:`_limit_jump`).  A small fast boat's growing takes in its
+    wake's foam in single frames (a 66 px box on an 11 px rib), in every direction of motion.
     Session 24 (helper H11, two boats in one graph cluster on ``ir``): ``graph_cut_dv_px_s`` (0: off): a
     graph link whose two ends' known velocities differ by more than this (px/s) joins nothing this
     frame, also inside one cluster, so a cluster holding two boats that move apart falls into its
@@ -2581,6 +2615,7 @@ class ClusterParams:
     grow_hint_pad_px: float = 20.0
     grow_hint_core: float = 0.5
     grow_hint_core_x: bool = False
+    grow_jump: float = 0.0
     hand_over_size_ratio: float = 0.0
     hand_over_height_ratio: float = 3.0
     relink_min_area: float = 0.3
@@ -2737,6 +2772,8 @@ class FeatureClusterer:
         self._cluster_boxes_now = -1  # frame index before this one
         self._grown_last: dict = {}  # cluster identity -> its grown box last frame (grow_hint)
         self._grown_last_t = -1  # frame index of _grown_last
+        self._jump_last: dict = {}  # cluster identity -> its kept grown box last frame (grow_jump)
+        self._jump_last_t = -1  # frame index of _jump_last
         self._last_fi = -1  # frame index of the last update
         self._split_child: dict = {}  # cluster identity -> (identity of its split part, time last split)
         self._apart: set = set()  # pairs (frozensets) of a cluster and its split part this frame
@@ -3951,6 +3988,18 @@ class FeatureClusterer:
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
+            if p.grow_jump > 0:
+                # session 25 (H14): no sudden growth beyond the box grown in the frame before
+                if self._jump_last and self._jump_last_t == self._cluster_boxes_now:
+                    hmg = np.asarray(snap.homography, np.float64)
+                    fin = bool(np.all(np.isfinite(hmg)))
+                    for i, c in enumerate(cids):
+                        hb = self._jump_last.get(int(c))
+                        if found[i] and hb is not None:
+                            boxes[i] = _limit_jump(boxes[i], pre_grow[i], _carry_box(hb, hmg) if fin else hb,
+                                                   p.grow_jump)
+                self._jump_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
+                self._jump_last_t = fi
         if p.size_filter_s > 0:
             grown = None
             if p.size_filter_grown and image is not None and p.grow_box > 0:
