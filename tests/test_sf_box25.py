@@ -25,14 +25,16 @@ XY = np.array([[104.0, 61.0], [110.0, 63.0], [116.0, 65.0], [108.0, 64.0]])
 P = dict(confirm_s=0.0, relink_s=0.0, coast_s=0.0, grow_sign=0.0, wake_frac=0.0)
 
 
-def run(params, seed, dx=0.0):
-    """Two frames: the hull alone, then (the camera moved ``dx``) with the band behind it."""
+def run(params, seed, dx=0.0, n_trail=1):
+    """The hull alone, then (the camera moved ``dx``) ``n_trail`` frames with the band behind it."""
     cl = FeatureClusterer(params)
     out = []
-    for fi, (img, h) in enumerate(((scene(seed), np.eye(3)), (scene(seed + 100, trail=True), shift(dx)))):
-        if dx and fi == 1:  # the whole image content moved by dx
+    frames = [(scene(seed), np.eye(3))] + [(scene(seed + 100 + j, trail=True), shift(dx if j == 0 else 0.0))
+                                           for j in range(n_trail)]
+    for fi, (img, h) in enumerate(frames):
+        if dx and fi >= 1:  # the whole image content moved by dx
             img = np.roll(img, int(dx), axis=1)
-        xy = XY + ([dx, 0.0] if fi == 1 else [0.0, 0.0])
+        xy = XY + ([dx, 0.0] if fi >= 1 else [0.0, 0.0])
         _, tr = cl.update(snap(xy, [[20.0, 0.0]] * len(xy), 0.1 * fi, fi, ids=[1, 2, 3, 4], h=h,
                                shape=img.shape[:2]), img)
         assert len(tr) == 1
@@ -63,6 +65,25 @@ def test_a_ratio_above_the_jump_changes_nothing(seed):
     off = run(ClusterParams(**P), seed)
     on = run(ClusterParams(grow_jump=3.5, **P), seed)
     assert [b.tolist() for b in on] == [b.tolist() for b in off]
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_only_small_boxes_with_max_h(seed):
+    # the box before is 7 px tall: over the limit of 5 px nothing is cut, within 7 px it is
+    off = run(ClusterParams(**P), seed)
+    big = run(ClusterParams(grow_jump=1.5, grow_jump_max_h_px=5.0, **P), seed)
+    assert [b.tolist() for b in big] == [b.tolist() for b in off]
+    small = run(ClusterParams(grow_jump=1.5, grow_jump_max_h_px=7.0, **P), seed)
+    assert small[1].tolist() == pytest.approx([90, 60, 30, 7])
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_keep_false_lets_a_lasting_change_pass_a_frame_later(seed):
+    kept = run(ClusterParams(grow_jump=1.5, **P), seed, n_trail=3)
+    assert [b[2] for b in kept] == pytest.approx([20, 30, 45, 60])  # 1.5 x the cut box each frame
+    raw = run(ClusterParams(grow_jump=1.5, grow_jump_keep=False, **P), seed, n_trail=3)
+    assert [b[2] for b in raw] == pytest.approx([20, 30, 60, 60])  # the second wide frame passes
+    assert raw[1].tolist() == pytest.approx([90, 60, 30, 7])
 
 
 def test_limit_jump_cuts_the_far_side_then_the_other():

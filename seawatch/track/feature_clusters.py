@@ -2507,6 +2507,9 @@ class ClusterParams:
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
     before the growing is cut back (:func:`_limit_jump`).  A small fast boat's growing takes in its
     wake's foam in single frames (a 66 px box on an 11 px rib), in every direction of motion.
+    ``grow_jump_max_h_px`` (0: any): only where that box before was at most this many pixels tall
+    (times the zoom: small boats); ``grow_jump_keep`` (True): the box before is the one kept (cut)
+    then; False: the one grown then (a jump of one frame is cut, a lasting change passes a frame later).
     Session 24 (helper H11, two boats in one graph cluster on ``ir``): ``graph_cut_dv_px_s`` (0: off): a
     graph link whose two ends' known velocities differ by more than this (px/s) joins nothing this
     frame, also inside one cluster, so a cluster holding two boats that move apart falls into its
@@ -2616,6 +2619,8 @@ class ClusterParams:
     grow_hint_core: float = 0.5
     grow_hint_core_x: bool = False
     grow_jump: float = 0.0
+    grow_jump_max_h_px: float = 0.0
+    grow_jump_keep: bool = True
     hand_over_size_ratio: float = 0.0
     hand_over_height_ratio: float = 3.0
     relink_min_area: float = 0.3
@@ -3990,15 +3995,18 @@ class FeatureClusterer:
                 self._grown_last_t = fi
             if p.grow_jump > 0:
                 # session 25 (H14): no sudden growth beyond the box grown in the frame before
+                raw = boxes.copy()
                 if self._jump_last and self._jump_last_t == self._cluster_boxes_now:
                     hmg = np.asarray(snap.homography, np.float64)
                     fin = bool(np.all(np.isfinite(hmg)))
                     for i, c in enumerate(cids):
                         hb = self._jump_last.get(int(c))
                         if found[i] and hb is not None:
-                            boxes[i] = _limit_jump(boxes[i], pre_grow[i], _carry_box(hb, hmg) if fin else hb,
-                                                   p.grow_jump)
-                self._jump_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
+                            hb = _carry_box(hb, hmg) if fin else hb
+                            if p.grow_jump_max_h_px <= 0 or hb[3] <= p.grow_jump_max_h_px * self._zoom:
+                                boxes[i] = _limit_jump(boxes[i], pre_grow[i], hb, p.grow_jump)
+                src = boxes if p.grow_jump_keep else raw
+                self._jump_last = {int(c): src[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._jump_last_t = fi
         if p.size_filter_s > 0:
             grown = None
