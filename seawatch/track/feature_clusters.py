@@ -2510,6 +2510,13 @@ class ClusterParams:
     ``grow_jump_max_h_px`` (0: any): only where that box before was at most this many pixels tall
     (times the zoom: small boats); ``grow_jump_keep`` (True): the box before is the one kept (cut)
     then; False: the one grown then (a jump of one frame is cut, a lasting change passes a frame later).
+    ``grow_trail_max`` (0: off) with ``grow_trail_max_h_px`` (10; 0: any): a grown box at most that many
+    pixels tall (times the zoom) of a cluster with a trailing side (``wake_frac``'s ``trail``: moving
+    faster than ``wake_min_px_s``) reaches beyond its box before the growing on that side by at most
+    ``grow_trail_max`` times the larger of that box's width and the grown box's height: the wake cut's
+    reference (the columns' 75th percentile height) is the wake's own when a small hull's wake is most
+    of the box, so the cut does not see it.  ``grow_trail_max_ir`` (0: off on infrared frames; None:
+    ``grow_trail_max``).
     Session 24 (helper H11, two boats in one graph cluster on ``ir``): ``graph_cut_dv_px_s`` (0: off): a
     graph link whose two ends' known velocities differ by more than this (px/s) joins nothing this
     frame, also inside one cluster, so a cluster holding two boats that move apart falls into its
@@ -2621,6 +2628,9 @@ class ClusterParams:
     grow_jump: float = 0.0
     grow_jump_max_h_px: float = 0.0
     grow_jump_keep: bool = True
+    grow_trail_max: float = 0.0
+    grow_trail_max_h_px: float = 10.0
+    grow_trail_max_ir: float | None = 0.0
     hand_over_size_ratio: float = 0.0
     hand_over_height_ratio: float = 3.0
     relink_min_area: float = 0.3
@@ -3993,6 +4003,20 @@ class FeatureClusterer:
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
+            trail_max = p.grow_trail_max_ir if (self._ir and p.grow_trail_max_ir is not None) else p.grow_trail_max
+            if trail_max > 0 and trail is not None:
+                # session 25 (H14): a small moving cluster's box not far beyond its features on its trailing side
+                for i in np.flatnonzero(found & (trail != 0)):
+                    b, q = boxes[i], pre_grow[i]
+                    if p.grow_trail_max_h_px > 0 and b[3] > p.grow_trail_max_h_px * self._zoom:
+                        continue
+                    ext = trail_max * max(q[2], b[3])
+                    x0, x1 = b[0], b[0] + b[2]
+                    if trail[i] < 0:
+                        x0 = max(x0, min(q[0] - ext, x1 - 1.0))
+                    else:
+                        x1 = min(x1, max(q[0] + q[2] + ext, x0 + 1.0))
+                    boxes[i, 0], boxes[i, 2] = x0, x1 - x0
             if p.grow_jump > 0:
                 # session 25 (H14): no sudden growth beyond the box grown in the frame before
                 raw = boxes.copy()
