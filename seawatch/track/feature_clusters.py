@@ -2070,6 +2070,35 @@ def appearance_distance(a, b, template_weight: float = 0.0) -> float:
     return dc + template_weight * dt
 
 
+def _limit_jump(box, pre, last, ratio):
+    """The grown ``box`` (``x, y, w, h``) no more than ``ratio`` times as wide and as tall as
+    ``last`` (the same cluster's grown box in the frame before, carried by the camera): along each
+    axis where it is larger, the side that reaches farther beyond ``pre`` (the box before the
+    growing) is moved in (then the other, where one is not enough); ``box`` itself when ``last``
+    is not finite or not positive (``ClusterParams.grow_jump``, session 25)."""
+    out = np.array(box, np.float64, copy=True)
+    if not (np.all(np.isfinite(last)) and last[2] > 0 and last[3] > 0):
+        return out
+    for a in (0, 1):
+        lim = ratio * last[2 + a]
+        ex = out[2 + a] - lim
+        if ex <= 0:
+            continue
+        lo, hi = out[a], out[a] + out[2 + a]
+        out_lo = pre[a] - lo  # how far the box reaches beyond the pre-grow box on each side
+        out_hi = hi - (pre[a] + pre[2 + a])
+        if out_lo >= out_hi:
+            cut = min(ex, max(out_lo, 0.0))
+            lo += cut
+            hi -= ex - cut
+        else:
+            cut = min(ex, max(out_hi, 0.0))
+            hi -= cut
+            lo += ex - cut
+        out[a], out[2 + a] = lo, hi - lo
+    return out
+
+
 def _carry_box(box, hmg):
     """Box ``x, y, w, h`` carried by the homography ``hmg`` (its two corners); the box itself when
     a corner maps to infinity."""
@@ -2557,6 +2586,21 @@ class ClusterParams:
     box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
     frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
     rule on IR lost METE on the tuning ``ir`` sequences).
+    Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
+    most this many times as wide (and as tall) as its grown box in the frame before (carried by the
+    camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
+    before the growing is cut back (:func:`_limit_jump`).  A small fast boat's growing takes in its
+    wake's foam in single frames (a 66 px box on an 11 px rib), in every direction of motion.
+    ``grow_jump_max_h_px`` (0: any): only where that box before was at most this many pixels tall
+    (times the zoom: small boats); ``grow_jump_keep`` (True): the box before is the one kept (cut)
+    then; False: the one grown then (a jump of one frame is cut, a lasting change passes a frame later).
+    ``grow_trail_max`` (0: off) with ``grow_trail_max_h_px`` (10; 0: any): a grown box at most that many
+    pixels tall (times the zoom) of a cluster with a trailing side (``wake_frac``'s ``trail``: moving
+    faster than ``wake_min_px_s``) reaches beyond its box before the growing on that side by at most
+    ``grow_trail_max`` times the larger of that box's width and the grown box's height: the wake cut's
+    reference (the columns' 75th percentile height) is the wake's own when a small hull's wake is most
+    of the box, so the cut does not see it.  ``grow_trail_max_ir`` (0: off on infrared frames; None:
+    ``grow_trail_max``).
     Session 24 (helper H11, two boats in one graph cluster on ``ir``): ``graph_cut_dv_px_s`` (0: off): a
     graph link whose two ends' known velocities differ by more than this (px/s) joins nothing this
     frame, also inside one cluster, so a cluster holding two boats that move apart falls into its
@@ -2677,6 +2721,12 @@ class ClusterParams:
     grow_hint_pad_px: float = 20.0
     grow_hint_core: float = 0.5
     grow_hint_core_x: bool = False
+    grow_jump: float = 0.0
+    grow_jump_max_h_px: float = 0.0
+    grow_jump_keep: bool = True
+    grow_trail_max: float = 0.0
+    grow_trail_max_h_px: float = 10.0
+    grow_trail_max_ir: float | None = 0.0
     hand_over_size_ratio: float = 0.0
     hand_over_height_ratio: float = 3.0
     relink_min_area: float = 0.3
@@ -2835,6 +2885,8 @@ class FeatureClusterer:
         self._cluster_boxes_now = -1  # frame index before this one
         self._grown_last: dict = {}  # cluster identity -> its grown box last frame (grow_hint)
         self._grown_last_t = -1  # frame index of _grown_last
+        self._jump_last: dict = {}  # cluster identity -> its kept grown box last frame (grow_jump)
+        self._jump_last_t = -1  # frame index of _jump_last
         self._last_fi = -1  # frame index of the last update
         self._split_child: dict = {}  # cluster identity -> (identity of its split part, time last split)
         self._apart: set = set()  # pairs (frozensets) of a cluster and its split part this frame
@@ -4049,6 +4101,35 @@ class FeatureClusterer:
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
+            trail_max = p.grow_trail_max_ir if (self._ir and p.grow_trail_max_ir is not None) else p.grow_trail_max
+            if trail_max > 0 and trail is not None:
+                # session 25 (H14): a small moving cluster's box not far beyond its features on its trailing side
+                for i in np.flatnonzero(found & (trail != 0)):
+                    b, q = boxes[i], pre_grow[i]
+                    if p.grow_trail_max_h_px > 0 and b[3] > p.grow_trail_max_h_px * self._zoom:
+                        continue
+                    ext = trail_max * max(q[2], b[3])
+                    x0, x1 = b[0], b[0] + b[2]
+                    if trail[i] < 0:
+                        x0 = max(x0, min(q[0] - ext, x1 - 1.0))
+                    else:
+                        x1 = min(x1, max(q[0] + q[2] + ext, x0 + 1.0))
+                    boxes[i, 0], boxes[i, 2] = x0, x1 - x0
+            if p.grow_jump > 0:
+                # session 25 (H14): no sudden growth beyond the box grown in the frame before
+                raw = boxes.copy()
+                if self._jump_last and self._jump_last_t == self._cluster_boxes_now:
+                    hmg = np.asarray(snap.homography, np.float64)
+                    fin = bool(np.all(np.isfinite(hmg)))
+                    for i, c in enumerate(cids):
+                        hb = self._jump_last.get(int(c))
+                        if found[i] and hb is not None:
+                            hb = _carry_box(hb, hmg) if fin else hb
+                            if p.grow_jump_max_h_px <= 0 or hb[3] <= p.grow_jump_max_h_px * self._zoom:
+                                boxes[i] = _limit_jump(boxes[i], pre_grow[i], hb, p.grow_jump)
+                src = boxes if p.grow_jump_keep else raw
+                self._jump_last = {int(c): src[i].copy() for i, c in enumerate(cids) if found[i]}
+                self._jump_last_t = fi
         if p.size_filter_s > 0:
             grown = None
             if p.size_filter_grown and image is not None and p.grow_box > 0:
