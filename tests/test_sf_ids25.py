@@ -60,10 +60,11 @@ def test_hold_off_is_the_old_cut():
 
 
 def _two_boats(ir, **kw):
-    """Two boats (3 features each, 12 px/s apart) whose features are one graph through a bridge."""
+    """Two boats side by side (3 features each) moving the same way at 10 and 3 px/s: without a
+    cut the paper's graph joins them into one cluster."""
     fc = FeatureClusterer(ClusterParams(radius_px=60.0, **kw))
     xy = [[40, 80], [46, 82], [52, 80], [58, 82], [64, 80], [70, 82]]
-    vel = [[6, 0]] * 3 + [[-6, 0]] * 3
+    vel = [[10, 0]] * 3 + [[3, 0]] * 3
     labs = []
     for k in range(8):
         fc.update(snap(xy, vel, 0.1 * k, k), ir=ir)
@@ -84,3 +85,14 @@ def test_cut_ir_only_on_infrared_frames():
     fc, _ = _two_boats(False, graph_cut_dv_px_s=4.0, graph_cut_dv_px_s_ir=6.0)
     assert fc.graph.cut_dv == 4.0
     assert FeatureClusterer(ClusterParams(graph_cut_hold=0.5)).graph.cut_hold == 0.5
+
+
+def test_cut_ir_splits_the_two_boats_on_infrared_frames_only():
+    _, vis = _two_boats(False, graph_cut_dv_px_s_ir=6.0, graph_cut_parts=True)
+    _, ir = _two_boats(True, graph_cut_dv_px_s_ir=6.0, graph_cut_parts=True)
+    _, off = _two_boats(True)
+    for lab in vis[-3:] + off[-3:]:  # one cluster: the step is off on visible frames, and off by default
+        assert len(set(lab.tolist())) == 1 and lab[0] >= 0
+    for lab in ir[-3:]:  # 7 px/s apart > 6 on infrared frames: two clusters, the identities kept
+        assert _apart(lab)
+    assert [x.tolist() for x in ir[-3:]] == [ir[-1].tolist()] * 3
