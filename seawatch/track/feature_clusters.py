@@ -533,7 +533,7 @@ class AffinityClusters:
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
         gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
-        cut_dv: float = 0.0, cut_parts: bool = False,
+        cut_dv: float = 0.0, cut_parts: bool = False, cut_hold: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -553,6 +553,7 @@ class AffinityClusters:
         self.split_origin_s = float(split_origin_s)
         self.cut_dv = float(cut_dv)
         self.cut_parts = bool(cut_parts)
+        self.cut_hold = float(cut_hold)
         self.reset()
 
     def reset(self) -> None:
@@ -564,6 +565,7 @@ class AffinityClusters:
         self._label_t = np.zeros(0)
         self._origin = np.zeros(0, np.int64)  # identity before the last merge into an older one
         self._has = np.zeros(0, bool)  # slots with a positive weight to some other slot
+        self._cut = np.zeros((0, 0), bool)  # cut_hold: pairs whose link was cut (held while they differ)
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
         self.merged_s: dict[int, float] = {}  # split_origin_s: last time a cluster absorbed another's features
@@ -577,6 +579,10 @@ class AffinityClusters:
         lk = np.zeros((new, new), bool)
         lk[: self._cap, : self._cap] = self._linked
         self._w, self._linked = w, lk
+        if self.cut_hold > 0:
+            ct = np.zeros((new, new), bool)
+            ct[: self._cap, : self._cap] = self._cut
+            self._cut = ct
         self._fid = np.r_[self._fid, np.full(new - self._cap, -1, np.int64)]
         self._label = np.r_[self._label, np.full(new - self._cap, -1, np.int64)]
         self._label_t = np.r_[self._label_t, np.full(new - self._cap, -np.inf)]
@@ -653,6 +659,10 @@ class AffinityClusters:
             self._linked[r, :] = False
             self._linked[:, r] = False
             self._has[r] = False
+        if self.cut_hold > 0 and (changed | gone).any():
+            r = np.flatnonzero(changed | gone)
+            self._cut[r, :] = False
+            self._cut[:, r] = False
         forget = changed | gone
         self._label[forget] = -1
         self._label_t[forget] = -np.inf
@@ -690,6 +700,13 @@ class AffinityClusters:
             with np.errstate(invalid="ignore"):
                 dl = np.hypot(*(vsub[li] - vsub[lj]).T)
             cut = dl > self.cut_dv  # NaN (unknown): kept
+            if self.cut_hold > 0:
+                # session 25 (helper H15, ``ClusterParams.graph_cut_hold``): a pair cut in an
+                # earlier frame stays cut while its velocities still differ by more than
+                # ``cut_hold`` times ``cut_dv`` (a noisy velocity dipping under the threshold for a
+                # frame does not join the two boats again)
+                held = self._cut[ss[li], ss[lj]]
+                cut |= held & (dl > self.cut_hold * self.cut_dv)
             if self.cut_parts and cut.any():
                 # ``graph_cut_parts``: a cut holds only where both its ends fall in parts of at least
                 # ``min_features`` features (two boats); a cut that leaves a smaller piece (a boat
@@ -699,6 +716,9 @@ class AffinityClusters:
                 _, cc0 = connected_components(g, directed=False)
                 sz = np.bincount(cc0)
                 cut &= (sz[cc0[li]] >= self.min_features) & (sz[cc0[lj]] >= self.min_features)
+            if self.cut_hold > 0:
+                self._cut[ss[li], ss[lj]] = cut
+                self._cut[ss[lj], ss[li]] = cut
             keep = ~cut
             li, lj = li[keep], lj[keep]
         if max_dv_px_s > 0 and velocity is not None and len(li):
@@ -2619,7 +2639,14 @@ class ClusterParams:
     off; only with ``foot_open_px``): a side is open only where the rows 1-4 px (times the zoom) under
     the horizon are also not darker than the sea under the margin by more than this many grey levels
     (:func:`_under_dark`): the coast's foot can lie wholly under the horizon's row, the sky reaching
-    down to it."""
+    down to it.
+
+    Session 25 (helper H15, identity switches on ``ir``): ``graph_cut_dv_px_s_ir`` (0: off, i.e.
+    ``graph_cut_dv_px_s`` on infrared frames too): the cut's threshold on infrared frames
+    (``FeatureClusterer.update(..., ir=True)``), so the cut can run on ``ir`` alone (it helped every
+    tuning ``ir`` sequence and hurt ``pan``); ``graph_cut_hold`` (0: off): a pair cut in one frame
+    stays cut while its two velocities still differ by more than this fraction of the threshold
+    (the cut held over time; the velocities are noisy frame to frame)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2794,6 +2821,8 @@ class ClusterParams:
     relink_aspect_ratio: float = 6.0
     graph_cut_dv_px_s: float = 0.0
     graph_cut_parts: bool = False
+    graph_cut_dv_px_s_ir: float = 0.0
+    graph_cut_hold: float = 0.0
     relink_young_after_s: float = 0.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
@@ -2830,7 +2859,7 @@ class FeatureClusterer:
         self.graph = AffinityClusters(p.alpha, p.w_link, p.w_cap, p.min_features, p.label_memory_s, p.unmerge,
                                       p.merge_dv_clusters, p.merge_min_share, p.gate_rel, p.gate_rel_min_px_s,
                                       p.gate_chain, p.split_origin_dv_px_s, p.split_origin_s,
-                                      p.graph_cut_dv_px_s, p.graph_cut_parts)
+                                      p.graph_cut_dv_px_s, p.graph_cut_parts, p.graph_cut_hold)
         self.last_labels = np.zeros(0, np.int64)
         self.last_contrast: np.ndarray | None = None
         self.noise_px_s = float("nan")
@@ -3910,6 +3939,8 @@ class FeatureClusterer:
         p = self.params
         self._top_frac = p.top_frac_ir if (ir and p.top_frac_ir is not None) else p.top_frac
         self._ir = bool(ir)
+        # session 25 (helper H15): ``graph_cut_dv_px_s_ir`` replaces ``graph_cut_dv_px_s`` on infrared frames
+        self.graph.cut_dv = p.graph_cut_dv_px_s_ir if (ir and p.graph_cut_dv_px_s_ir > 0) else p.graph_cut_dv_px_s
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
