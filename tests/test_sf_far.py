@@ -38,7 +38,8 @@ def _snap(k, ship, coast=(), seed=0):
 
 
 def _params(**kw):
-    far = dict(far_top_px=0.0, far_open_px=0.0, far_open_contrast=0.0)
+    # session 25's coast-foot step (on by default since) off: these tests isolate the far rule
+    far = dict(far_top_px=0.0, far_open_px=0.0, far_open_contrast=0.0, foot_open_px=0.0, foot_dark=0.0)
     far.update(kw)
     return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0, **far)
 

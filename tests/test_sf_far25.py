@@ -31,6 +31,8 @@ def _snap(k, pts, v=(3.0, 0.4), seed=0):
 
 
 def _params(**kw):
+    """The step off unless named (on by default since session 25)."""
+    kw = {"foot_open_px": 0.0, "foot_dark": 0.0, **kw}
     return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0,
                          grow_box=0.0, min_contrast=0.0, max_aspect=0.0, **kw)
 
@@ -46,8 +48,8 @@ def _reports(params, pts, coast_x1, zoom=1.0, frames=6, image=True):
     return out
 
 
-def test_off_by_default_and_off_reports_the_foot():
-    assert ClusterParams().foot_open_px == 0.0
+def test_on_since_session_25_and_off_reports_the_foot():
+    assert ClusterParams().foot_open_px == 10.0 and ClusterParams().foot_dark == 8.0
     # off: the coast foot's moving cluster is reported (the clutter this step removes)
     assert len(_reports(_params(), FOOT, 200)[-1]) == 1
 
@@ -107,8 +109,7 @@ def _reports_on(params, pts, img, frames=6):
     return [c.update(_snap(k, pts), image=img, horizon=hz)[0].boxes.copy() for k in range(frames)]
 
 
-def test_foot_dark_off_by_default_and_strip_under_the_horizon():
-    assert ClusterParams().foot_dark == 0.0
+def test_foot_dark_strip_under_the_horizon():
     img = _under_image(200)
     # the sky reaches down to the horizon's row: the side test alone sees open sea and keeps the report
     assert len(_reports_on(_params(foot_open_px=10.0), FOOT, img)[-1]) == 1

@@ -2629,7 +2629,8 @@ class ClusterParams:
     features (a boat whose features' velocities are noisy is not broken up; see
     :meth:`AffinityClusters.step`).
 
-    Session 25 (helper H13, the coast's foot on ``pan``): ``foot_open_px`` (0: off): a cluster whose
+    Session 25 (helper H13, the coast's foot on ``pan``; on by default since session 25: 10 and 8):
+    ``foot_open_px`` (0: off): a cluster whose
     members all lie less than ``water_margin_px`` (times the zoom) under the horizon is not reported
     when the sky does not reach down to the horizon this many pixels (times the zoom) left of its box's
     left edge nor as far right of its right edge (:func:`_coast_foot`, with :func:`_far_open`'s test and
@@ -2796,8 +2797,8 @@ class ClusterParams:
     far_open_px: float = 30.0
     far_sky_tol: float = 8.0
     far_open_contrast: float = 20.0
-    foot_open_px: float = 0.0
-    foot_dark: float = 0.0
+    foot_open_px: float = 10.0
+    foot_dark: float = 8.0
     relink_dy_px_per_s: float = 1.2
     relink_dy_side: bool = True
     hand_over_relinked: bool = True
