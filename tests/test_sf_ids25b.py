@@ -90,3 +90,31 @@ def test_switches_act_on_infrared_frames_only():
     c2.graph.step = lambda *a, **k: (seen.append((k["max_dv_px_s"], c2.graph.gate_ema_s)), orig2(*a, **k))[1]
     c2.update(s, ir=True)
     assert seen == [(3.0, 0.0)]
+
+
+def test_major_identity_keeps_a_merge():
+    from seawatch.track.feature_clusters import assign_identities
+    # identity 3 (old, 2 features) and 7 (5 features) merge into one component
+    prev = np.array([3, 3, 7, 7, 7, 7, 7])
+    comp = np.zeros(7, np.int64)
+    ids, nxt = assign_identities(prev, comp, 10)
+    assert ids.tolist() == [3] and nxt == 10  # the paper: the oldest identity
+    ids, nxt = assign_identities(prev, comp, 10, major=True)
+    assert ids.tolist() == [7] and nxt == 10
+    # a split still leaves an identity with the part holding most of its features
+    prev = np.array([3, 3, 3, 3, 3, 7, 7])
+    comp = np.array([0, 0, 0, 1, 1, 1, 1])
+    ids, _ = assign_identities(prev, comp, 10, major=True)
+    assert ids.tolist() == [3, 7]
+
+
+def test_major_switch_on_infrared_frames_only():
+    c = FeatureClusterer(ClusterParams(merge_id_major_ir=True))
+    xy, v = [[100, 60], [110, 62]], [[5.0, 0.0]] * 2
+    c.update(snap(xy, v, 0.0, 0), ir=False)
+    assert c.graph.id_major is False
+    c.update(snap(xy, v, 0.1, 1), ir=True)
+    assert c.graph.id_major is True
+    c2 = FeatureClusterer(ClusterParams())
+    c2.update(snap(xy, v, 0.0, 0), ir=True)
+    assert c2.graph.id_major is False and ClusterParams().merge_id_major_ir is False

@@ -363,6 +363,7 @@ class _FootSide:
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
+    major: bool = False,
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -387,6 +388,12 @@ def assign_identities(
         merge (``origin`` equal to it), instead of most of its features: the rib's cluster that took
         a few features of the fishing boat, and then the fishing boat's cluster, keeps its identity
         on the rib when they part.  The other parts get new identities as in the paper.
+    major : bool
+        Not in the paper (False: off; ``ClusterParams.merge_id_major_ir``, session 25, helper H18):
+        identities are handed out by the number of their features in a component first (most first),
+        then oldest first: when two clusters merge, the identity carried by most of the merged
+        cluster's features keeps it (the big boat's cluster that absorbs a small boat's keeps its
+        own identity), not the oldest one; the other identity is left without a cluster.
 
     Returns
     -------
@@ -418,7 +425,10 @@ def assign_identities(
             ok = counts >= min_share * cmax[pairs[:, 1]]
             pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
-        order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
+        if major:
+            order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], pairs[:, 0], -counts))
+        else:
+            order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
         split = split_dv > 0 and origin is not None and comp_vel is not None
         if split:
             # features per (label, component) that carried the label before a merge too
@@ -555,6 +565,7 @@ class AffinityClusters:
         self.cut_parts = bool(cut_parts)
         self.cut_hold = float(cut_hold)
         self.gate_ema_s = float(gate_ema_s)
+        self.id_major = False  # assign_identities' ``major`` (FeatureClusterer: ``merge_id_major_ir``)
         self.reset()
 
     def reset(self) -> None:
@@ -772,9 +783,9 @@ class AffinityClusters:
                     recent = (keys[i] == lab) & (t_s - when[i] <= self.split_origin_s)
                 org = np.where(recent, org, lab)
             cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, org,
-                                                   cvel, self.split_origin_dv)
+                                                   cvel, self.split_origin_dv, major=self.id_major)
         else:
-            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, major=self.id_major)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
@@ -2690,7 +2701,9 @@ class ClusterParams:
     the velocity gate's threshold (a feature joining an established cluster) on infrared frames;
     ``gate_ema_s_ir`` (0: off; infrared frames only): the gate compares a joining feature's velocity with the cluster's
     established velocity, an exponential mean over time of its members' mean velocity with this time
-    constant (s), instead of this frame's mean (which follows the newcomers feature by feature)."""
+    constant (s), instead of this frame's mean (which follows the newcomers feature by feature);
+    ``merge_id_major_ir`` (False: off; infrared frames only): a merged cluster keeps the identity most
+    of its features carried, not the oldest (:func:`assign_identities`' ``major``)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2869,6 +2882,7 @@ class ClusterParams:
     graph_cut_hold: float = 0.0
     gate_dv_px_s_ir: float = 0.0
     gate_ema_s_ir: float = 0.0
+    merge_id_major_ir: bool = False
     relink_young_after_s: float = 0.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
@@ -3989,6 +4003,7 @@ class FeatureClusterer:
         self.graph.cut_dv = p.graph_cut_dv_px_s_ir if (ir and p.graph_cut_dv_px_s_ir > 0) else p.graph_cut_dv_px_s
         # session 25 (helper H18): ``gate_ema_s_ir``, the gate's established cluster velocity, on infrared frames
         self.graph.gate_ema_s = p.gate_ema_s_ir if ir else 0.0
+        self.graph.id_major = bool(ir and p.merge_id_major_ir)
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
