@@ -363,6 +363,7 @@ class _FootSide:
 def assign_identities(
     prev_labels: np.ndarray, comp: np.ndarray, next_id: int, min_share: float = 0.0,
     origin: np.ndarray | None = None, comp_vel: np.ndarray | None = None, split_dv: float = 0.0,
+    major: bool = False,
 ) -> tuple[np.ndarray, int]:
     """Identities of this frame's clusters from the identities their features carried.
 
@@ -387,6 +388,12 @@ def assign_identities(
         merge (``origin`` equal to it), instead of most of its features: the rib's cluster that took
         a few features of the fishing boat, and then the fishing boat's cluster, keeps its identity
         on the rib when they part.  The other parts get new identities as in the paper.
+    major : bool
+        Not in the paper (False: off; ``ClusterParams.merge_id_major_ir``, session 25, helper H18):
+        identities are handed out by the number of their features in a component first (most first),
+        then oldest first: when two clusters merge, the identity carried by most of the merged
+        cluster's features keeps it (the big boat's cluster that absorbs a small boat's keeps its
+        own identity), not the oldest one; the other identity is left without a cluster.
 
     Returns
     -------
@@ -418,7 +425,10 @@ def assign_identities(
             ok = counts >= min_share * cmax[pairs[:, 1]]
             pairs, counts = pairs[ok], counts[ok]
         # oldest label first; within a label most features, then larger component, lower index
-        order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
+        if major:
+            order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], pairs[:, 0], -counts))
+        else:
+            order = np.lexsort((pairs[:, 1], -size[pairs[:, 1]], -counts, pairs[:, 0]))
         split = split_dv > 0 and origin is not None and comp_vel is not None
         if split:
             # features per (label, component) that carried the label before a merge too
@@ -533,7 +543,7 @@ class AffinityClusters:
         label_memory_s: float = 2.0, unmerge: bool = False, gate_clusters: bool = False,
         min_share: float = 0.0, gate_rel: float = 0.0, gate_rel_min_px_s: float = 0.0,
         gate_chain: bool = False, split_origin_dv: float = 0.0, split_origin_s: float = 0.0,
-        cut_dv: float = 0.0, cut_parts: bool = False, cut_hold: float = 0.0,
+        cut_dv: float = 0.0, cut_parts: bool = False, cut_hold: float = 0.0, gate_ema_s: float = 0.0,
     ) -> None:
         if alpha <= 0 or w_link <= 0:
             raise ValueError(f"affinity: alpha ({alpha}) and w_link ({w_link}) must be > 0")
@@ -554,6 +564,8 @@ class AffinityClusters:
         self.cut_dv = float(cut_dv)
         self.cut_parts = bool(cut_parts)
         self.cut_hold = float(cut_hold)
+        self.gate_ema_s = float(gate_ema_s)
+        self.id_major = False  # assign_identities' ``major`` (FeatureClusterer: ``merge_id_major_ir``)
         self.reset()
 
     def reset(self) -> None:
@@ -569,6 +581,7 @@ class AffinityClusters:
         self.next_id = 1
         self.birth_s: dict[int, float] = {}
         self.merged_s: dict[int, float] = {}  # split_origin_s: last time a cluster absorbed another's features
+        self.vel_est: dict[int, tuple[np.ndarray, float]] = {}  # gate_ema_s: identity -> (velocity, time)
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -600,7 +613,9 @@ class AffinityClusters:
 
     def _velocity_gate(self, lab, vel, li, lj, t_s, max_dv, min_age_s):
         est = np.array([c for c, b in self.birth_s.items() if t_s - b >= min_age_s - 1e-9], np.int64)
-        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters, self.gate_rel, self.gate_rel_min_px_s)
+        vref = {k: v for k, (v, _) in self.vel_est.items()} if self.gate_ema_s > 0 else None
+        return _gate_links(lab, vel, li, lj, est, max_dv, self.gate_clusters, self.gate_rel, self.gate_rel_min_px_s,
+                           vref)
 
     def step(
         self,
@@ -768,9 +783,9 @@ class AffinityClusters:
                     recent = (keys[i] == lab) & (t_s - when[i] <= self.split_origin_s)
                 org = np.where(recent, org, lab)
             cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, org,
-                                                   cvel, self.split_origin_dv)
+                                                   cvel, self.split_origin_dv, major=self.id_major)
         else:
-            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share)
+            cids, self.next_id = assign_identities(vote, comp, self.next_id, self.min_share, major=self.id_major)
         for c in cids:
             self.birth_s.setdefault(int(c), float(t_s))
         labels = np.full(n, -1, np.int64)
@@ -786,6 +801,8 @@ class AffinityClusters:
                 for x in np.unique(labels[member][(old >= 0) & (labels[member] < old)]):
                     self.merged_s[int(x)] = float(t_s)
             self._origin[sm] = np.where(keep, self._origin[sm], labels[member])
+        if self.gate_ema_s > 0 and velocity is not None and len(cids):
+            self._update_vel_est(labels, cids, np.asarray(velocity, np.float64), t_s)
         self._label[slots[member]] = labels[member]
         self._label_t[slots[member]] = t_s
         live = set(int(c) for c in cids)
@@ -795,10 +812,33 @@ class AffinityClusters:
             keep = live | set(int(x) for x in np.unique(valid))
             self.birth_s = {k: v for k, v in self.birth_s.items() if k in keep}
             self.merged_s = {k: v for k, v in self.merged_s.items() if k in keep}
+            self.vel_est = {k: v for k, v in self.vel_est.items() if k in keep}
         return labels, np.sort(cids)
 
+    def _update_vel_est(self, labels, cids, vel, t_s):
+        """``gate_ema_s`` (session 25, helper H18): each cluster's established velocity, an exponential
+        mean over time (time constant ``gate_ema_s``) of its members' mean velocity; the velocity gate
+        compares a joining feature with it instead of this frame's mean, so a cluster whose members are
+        replaced one by one by those of a neighbouring boat (its mean following them) still refuses them.
+        A new identity (also a split part) starts from its members' mean."""
+        m = labels >= 0
+        fin = m & np.isfinite(vel).all(axis=1)
+        if not fin.any():
+            return
+        u, inv = np.unique(labels[fin], return_inverse=True)
+        vs = np.zeros((len(u), 2))
+        np.add.at(vs, inv, vel[fin])
+        vm = vs / np.bincount(inv, minlength=len(u))[:, None]
+        for q, c in enumerate(u.tolist()):
+            old = self.vel_est.get(c)
+            if old is None:
+                self.vel_est[c] = (vm[q].copy(), float(t_s))
+            else:
+                a = 1.0 - np.exp(-max(float(t_s) - old[1], 0.0) / self.gate_ema_s)
+                self.vel_est[c] = (old[0] + a * (vm[q] - old[0]), float(t_s))
 
-def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, rel_min=0.0):
+
+def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, rel_min=0.0, vref=None):
     """Which links ``(li, lj)`` may join their ends (see :meth:`AffinityClusters.step`,
     ``max_dv_px_s``): False where one end belongs to an established cluster and the other, not
     in it, has a velocity more than ``max_dv`` from the cluster's mean velocity.  With
@@ -808,7 +848,9 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, 
     velocity alike) and the other end's velocity is unknown.  ``rel`` (session 22, 0: off; with
     ``clusters``): two established clusters are also kept apart when their mean velocities differ by
     more than ``rel`` times the faster one's speed and by more than ``rel_min`` (px/s): a ferry at
-    6 px/s and a rib at 3 px/s."""
+    6 px/s and a rib at 3 px/s.  ``vref`` (session 25, helper H18; None: off): a mapping from a
+    cluster's identity to its established velocity (px/s), used instead of this frame's mean velocity
+    of its members where given and finite (:class:`AffinityClusters`' ``gate_ema_s``)."""
     keep = np.ones(len(li), bool)
     la, lb = lab[li], lab[lj]
     cand = (la != lb) & ((la >= 0) | (lb >= 0))
@@ -828,6 +870,11 @@ def _gate_links(lab, vel, li, lj, established, max_dv, clusters=False, rel=0.0, 
     np.add.at(vs, k[fin], vel[fin])
     vn = np.bincount(k[fin], minlength=nl)
     vmean = np.where(vn[:, None] > 0, vs / np.maximum(vn, 1)[:, None], np.nan)
+    if vref:
+        for q, lb_ in enumerate(labels.tolist()):
+            r = vref.get(lb_)
+            if r is not None and np.isfinite(r).all():
+                vmean[q] = r
 
     def refuse(c, o):
         """End ``c``'s cluster refuses the feature ``o``."""
@@ -2647,7 +2694,16 @@ class ClusterParams:
     (``FeatureClusterer.update(..., ir=True)``), so the cut can run on ``ir`` alone (it helped every
     tuning ``ir`` sequence and hurt ``pan``); ``graph_cut_hold`` (0: off): a pair cut in one frame
     stays cut while its two velocities still differ by more than this fraction of the threshold
-    (the cut held over time; the velocities are noisy frame to frame)."""
+    (the cut held over time; the velocities are noisy frame to frame).
+
+    Session 25 (helper H18, a cluster drifting from one boat onto the next on ``ir``):
+    ``gate_dv_px_s_ir`` (0: off, i.e. ``gate_dv_px_s`` or ``merge_dv_px_s`` on infrared frames too):
+    the velocity gate's threshold (a feature joining an established cluster) on infrared frames;
+    ``gate_ema_s_ir`` (0: off; infrared frames only): the gate compares a joining feature's velocity with the cluster's
+    established velocity, an exponential mean over time of its members' mean velocity with this time
+    constant (s), instead of this frame's mean (which follows the newcomers feature by feature);
+    ``merge_id_major_ir`` (False: off; infrared frames only): a merged cluster keeps the identity most
+    of its features carried, not the oldest (:func:`assign_identities`' ``major``)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2824,6 +2880,9 @@ class ClusterParams:
     graph_cut_parts: bool = False
     graph_cut_dv_px_s_ir: float = 0.0
     graph_cut_hold: float = 0.0
+    gate_dv_px_s_ir: float = 0.0
+    gate_ema_s_ir: float = 0.0
+    merge_id_major_ir: bool = False
     relink_young_after_s: float = 0.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
@@ -3942,6 +4001,9 @@ class FeatureClusterer:
         self._ir = bool(ir)
         # session 25 (helper H15): ``graph_cut_dv_px_s_ir`` replaces ``graph_cut_dv_px_s`` on infrared frames
         self.graph.cut_dv = p.graph_cut_dv_px_s_ir if (ir and p.graph_cut_dv_px_s_ir > 0) else p.graph_cut_dv_px_s
+        # session 25 (helper H18): ``gate_ema_s_ir``, the gate's established cluster velocity, on infrared frames
+        self.graph.gate_ema_s = p.gate_ema_s_ir if ir else 0.0
+        self.graph.id_major = bool(ir and p.merge_id_major_ir)
         if horizon is None and getattr(snap, "horizon", None) is not None:
             horizon, zoom = snap.horizon, float(getattr(snap, "zoom", 1.0))
         nz = getattr(snap, "noise_px_s", float("nan"))
@@ -3980,6 +4042,9 @@ class FeatureClusterer:
                 warnings.simplefilter("ignore", RuntimeWarning)
                 vel = np.nanmean(snap.history, axis=1)  # recent velocity relative to the scene
         gate_dv = p.gate_dv_px_s if p.gate_dv_px_s > 0 and p.merge_dv_px_s > 0 else p.merge_dv_px_s
+        if ir and p.gate_dv_px_s_ir > 0 and p.merge_dv_px_s > 0:
+            # session 25 (helper H18): the velocity gate's threshold on infrared frames
+            gate_dv = p.gate_dv_px_s_ir
         labels, cids = self.graph.step(snap.slots, snap.ids, st[ei], st[ej], snap.t_s, active=snap.stable,
                                        velocity=vel, max_dv_px_s=gate_dv,
                                        min_age_s=p.confirm_s)
