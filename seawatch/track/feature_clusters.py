@@ -2620,7 +2620,11 @@ class ClusterParams:
     do not exchange identities when one is lost).  ``relink_own_speed_k`` (0: off; H12): the relink
     gate of a lost identity whose last velocity is known grows at ``min(relink_px_per_s,
     max(relink_own_speed_floor, relink_own_speed_k * its speed))`` px/s instead of ``relink_px_per_s``
-    (a slow boat lost long is not given to a cluster hundreds of px away).
+    (a slow boat lost long is not given to a cluster hundreds of px away).  ``coast_drop_alt`` (False:
+    off; session 25, helper H17): a lost identity whose coast is reported (with ``coast_follow``) forgets
+    the place it was expected before a relink undone (``relink_alt_s``): its place is known now (on
+    ``pan`` 44 at 33.0 s the sailboat's coasted identity went to a cluster 350 px away through its
+    alternative place from 14.1 s, whose gate had grown to 390 px).
 
     Session 23 (helper H6, ``ir``'s METE): ``grow_core_q_ir`` (0: off): on infrared frames
     (``FeatureClusterer.update(..., ir=True)``) the core given to :func:`grow_boxes` (the features'
@@ -2886,6 +2890,7 @@ class ClusterParams:
     relink_young_after_s: float = 0.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
+    coast_drop_alt: bool = False
 
 
 class FeatureClusterer:
@@ -4488,6 +4493,9 @@ class FeatureClusterer:
                     tl, _, v = self._lost[k]
                     self._lost[k] = (tl, grown[j].copy(), v)
                     self._lost_dir.pop(k, None)  # the grown box is where it is now, not the lost corners
+                    if p.coast_drop_alt:  # session 25 (H17): nor where it was expected before a relink undone
+                        self._lost_alt.pop(k, None)
+                        self._lost_alt_dir.pop(k, None)
         edge = wait = np.zeros(len(ids), bool)  # coast_edge: outside to the left or right, its rows in the image
         if p.coast_edge > 0 and snap.shape is not None:
             hh, ww = snap.shape
@@ -4577,6 +4585,9 @@ class FeatureClusterer:
                 tl, _, v = self._lost[k]
                 self._lost[k] = (tl, grown[j].copy(), v)
                 self._lost_dir.pop(k, None)
+                if p.coast_drop_alt:
+                    self._lost_alt.pop(k, None)
+                    self._lost_alt_dir.pop(k, None)
 
     def _edge_grow(self, img, e, left, pad=48):
         """``coast_edge``'s grow of the box ``e`` (``x, y, w, h``, on the image's left edge, or its
