@@ -68,5 +68,5 @@ def test_cut_parts_keeps_a_noisy_boat_and_still_splits_two_boats():
     for k in range(6):
         lab = g.step(slots, ids, e[:, 0], e[:, 1], 0.1 * k, velocity=vel)[0]
     assert len(set(lab[:3].tolist())) == 1 and len(set(lab[3:].tolist())) == 1 and lab[0] != lab[3]
-    assert ClusterParams().graph_cut_parts is False
+    assert ClusterParams().graph_cut_parts is True  # on since session 25 (acts only where a cut threshold is set)
     assert FeatureClusterer(ClusterParams(graph_cut_dv_px_s=6.0, graph_cut_parts=True)).graph.cut_parts is True

@@ -61,7 +61,9 @@ def test_hold_off_is_the_old_cut():
 
 def _two_boats(ir, **kw):
     """Two boats side by side (3 features each) moving the same way at 10 and 3 px/s: without a
-    cut the paper's graph joins them into one cluster."""
+    cut the paper's graph joins them into one cluster.  Session 25's infrared graph steps (on by
+    default since) are off unless named."""
+    kw = {"graph_cut_dv_px_s_ir": 0.0, "graph_cut_parts": False, "gate_ema_s_ir": 0.0, "merge_id_major_ir": False, **kw}
     fc = FeatureClusterer(ClusterParams(radius_px=60.0, **kw))
     xy = [[40, 80], [46, 82], [52, 80], [58, 82], [64, 80], [70, 82]]
     vel = [[10, 0]] * 3 + [[3, 0]] * 3
@@ -73,7 +75,8 @@ def _two_boats(ir, **kw):
 
 
 def test_cut_ir_only_on_infrared_frames():
-    assert ClusterParams().graph_cut_dv_px_s_ir == 0.0 and ClusterParams().graph_cut_hold == 0.0
+    # on by default since session 25 (6 px/s on infrared frames); the hold stays off
+    assert ClusterParams().graph_cut_dv_px_s_ir == 6.0 and ClusterParams().graph_cut_hold == 0.0
     fc, _ = _two_boats(False, graph_cut_dv_px_s_ir=6.0)
     assert fc.graph.cut_dv == 0.0
     fc, _ = _two_boats(True, graph_cut_dv_px_s_ir=6.0)
@@ -91,7 +94,7 @@ def test_cut_ir_splits_the_two_boats_on_infrared_frames_only():
     _, vis = _two_boats(False, graph_cut_dv_px_s_ir=6.0, graph_cut_parts=True)
     _, ir = _two_boats(True, graph_cut_dv_px_s_ir=6.0, graph_cut_parts=True)
     _, off = _two_boats(True)
-    for lab in vis[-3:] + off[-3:]:  # one cluster: the step is off on visible frames, and off by default
+    for lab in vis[-3:] + off[-3:]:  # one cluster: the step is off on visible frames, and when switched off
         assert len(set(lab.tolist())) == 1 and lab[0] >= 0
     for lab in ir[-3:]:  # 7 px/s apart > 6 on infrared frames: two clusters, the identities kept
         assert _apart(lab)

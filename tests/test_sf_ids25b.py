@@ -9,9 +9,9 @@ from _feature_snap import snap
 from seawatch.track.feature_clusters import AffinityClusters, ClusterParams, FeatureClusterer, _gate_links
 
 
-def test_off_by_default():
+def test_defaults_since_session_25():
     p = ClusterParams()
-    assert p.gate_ema_s_ir == 0.0 and p.gate_dv_px_s_ir == 0.0
+    assert p.gate_ema_s_ir == 1.0 and p.gate_dv_px_s_ir == 0.0 and p.merge_id_major_ir is True
     assert AffinityClusters().gate_ema_s == 0.0
 
 
@@ -84,12 +84,13 @@ def test_switches_act_on_infrared_frames_only():
     c.update(s, ir=False)
     c.update(snap([[100, 60], [110, 62]], [[5.0, 0.0]] * 2, 0.1, 1), ir=True)
     assert seen == [(3.0, 0.0), (1.5, 2.0)]
-    c2 = FeatureClusterer(ClusterParams())
-    seen.clear()
-    orig2 = c2.graph.step
-    c2.graph.step = lambda *a, **k: (seen.append((k["max_dv_px_s"], c2.graph.gate_ema_s)), orig2(*a, **k))[1]
-    c2.update(s, ir=True)
-    assert seen == [(3.0, 0.0)]
+    for params, want in ((ClusterParams(gate_ema_s_ir=0.0), (3.0, 0.0)), (ClusterParams(), (3.0, 1.0))):
+        c2 = FeatureClusterer(params)  # switched off: the plain gate on infrared frames; the defaults: 1 s
+        seen.clear()
+        orig2 = c2.graph.step
+        c2.graph.step = lambda *a, _c=c2, _o=orig2, **k: (seen.append((k["max_dv_px_s"], _c.graph.gate_ema_s)), _o(*a, **k))[1]
+        c2.update(s, ir=True)
+        assert seen == [want]
 
 
 def test_major_identity_keeps_a_merge():
@@ -115,6 +116,6 @@ def test_major_switch_on_infrared_frames_only():
     assert c.graph.id_major is False
     c.update(snap(xy, v, 0.1, 1), ir=True)
     assert c.graph.id_major is True
-    c2 = FeatureClusterer(ClusterParams())
+    c2 = FeatureClusterer(ClusterParams(merge_id_major_ir=False))
     c2.update(snap(xy, v, 0.0, 0), ir=True)
-    assert c2.graph.id_major is False and ClusterParams().merge_id_major_ir is False
+    assert c2.graph.id_major is False and ClusterParams().merge_id_major_ir is True  # on since session 25

@@ -44,8 +44,8 @@ def run(drop):
     return ident, kept_alt, at_other
 
 
-def test_off_by_default():
-    assert ClusterParams().coast_drop_alt is False
+def test_on_since_session_25():
+    assert ClusterParams().coast_drop_alt is True
 
 
 def test_a_coast_found_drops_the_stale_place_and_the_far_cluster_keeps_its_own_identity():

@@ -2881,16 +2881,16 @@ class ClusterParams:
     relink_young_s: float = 1.0
     relink_aspect_ratio: float = 6.0
     graph_cut_dv_px_s: float = 0.0
-    graph_cut_parts: bool = False
-    graph_cut_dv_px_s_ir: float = 0.0
+    graph_cut_parts: bool = True
+    graph_cut_dv_px_s_ir: float = 6.0
     graph_cut_hold: float = 0.0
     gate_dv_px_s_ir: float = 0.0
-    gate_ema_s_ir: float = 0.0
-    merge_id_major_ir: bool = False
+    gate_ema_s_ir: float = 1.0
+    merge_id_major_ir: bool = True
     relink_young_after_s: float = 0.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
-    coast_drop_alt: bool = False
+    coast_drop_alt: bool = True
 
 
 class FeatureClusterer:
