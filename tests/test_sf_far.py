@@ -27,8 +27,13 @@ def _snap(k, ship, coast=(), seed=0):
     rng = np.random.default_rng(seed + 100 * k)
     pts = [(x, ROW + dy) for x, dy in ship] + [(x, ROW + dy) for x, dy in coast]
     xy = np.array(pts, float)
+    return stable_snap(k, xy, rng.normal(0, 0.3, (len(xy), 4, 2)))
+
+
+def stable_snap(k, xy, hist):
+    """Frame ``k`` (0.04 s apart) of stable features at ``xy`` (N, 2) with velocity samples ``hist``
+    (N, 4, 2), the last one their velocity; a 320x240 image."""
     n = len(xy)
-    hist = rng.normal(0, 0.3, (n, 4, 2))
     return FeatureSnapshot(
         t_s=0.04 * k, frame_index=k, ids=np.arange(n) + 10, slots=np.arange(n), xy=xy,
         size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),

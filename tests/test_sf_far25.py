@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from seawatch.detect.features import FeatureSnapshot
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _coast_foot
 
-from test_sf_far import ROW, _image, _Level
+from test_sf_far import ROW, _image, _Level, stable_snap
 
 # the coast foot's features: 4.5-7 px under the horizon (inside the 8-px margin), x 60-100
 FOOT = [(60.0, 5.0), (72.0, 6.5), (85.0, 4.5), (98.0, 6.0)]
@@ -20,14 +19,7 @@ def _snap(k, pts, v=(3.0, 0.4), seed=0):
     the 1.5 px/s floor) plus 0.2 px/s of noise: the moving rule joins them."""
     rng = np.random.default_rng(seed + 100 * k)
     xy = np.array([(x, ROW + dy) for x, dy in pts], float)
-    n = len(xy)
-    hist = np.array(v, float)[None, None, :] + rng.normal(0, 0.2, (n, 4, 2))
-    return FeatureSnapshot(
-        t_s=0.04 * k, frame_index=k, ids=np.arange(n) + 10, slots=np.arange(n), xy=xy,
-        size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),
-        matched=np.ones(n, bool), velocity=hist[:, -1], history=hist, image_velocity=hist[:, -1],
-        homography=np.eye(3), dt_s=0.04, n_keypoints=n, n_matched=n, shape=(240, 320),
-    )
+    return stable_snap(k, xy, np.array(v, float)[None, None, :] + rng.normal(0, 0.2, (len(xy), 4, 2)))
 
 
 def _params(**kw):
