@@ -2680,6 +2680,11 @@ class ClusterParams:
     box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
     frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
     rule on IR lost METE on the tuning ``ir`` sequences).
+    Session 25 (helper H20): ``wake_core`` (0: off): the wake cut (``wake_frac``, where a trailing side
+    is set) measures the columns against ``wake_core`` times the 75th percentile height of the columns
+    under the features (the core) instead of ``wake_frac`` times that of all columns (see
+    :func:`grow_boxes`).  Tried 0.3 and 0.5 (tuning 0.3382/17 and 0.3392/17 against 0.3382/15; faint
+    four 0.3663/12 and 0.3628/14 against 0.3662/12): not kept.
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
