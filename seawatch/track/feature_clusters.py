@@ -1333,6 +1333,7 @@ def grow_boxes(
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
     top_halo: float = 0.0, cores_retry: np.ndarray | None = None, top_min_px: float = 0.0,
+    wake_core: float = 0.0,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1446,6 +1447,14 @@ def grow_boxes(
         paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
         boat) is a thin line whose columns' heights to the object's bottom are large.
 
+    wake_core : float
+        The wake cut (where ``wake_frac`` is on) drops the columns lower than this fraction of the
+        75th percentile of the heights of the columns under the core (the features' extent)
+        instead of ``wake_frac`` of all the object's columns' (0: off; not in the paper; session
+        25, H20): a small fast boat's grown foreground may be mostly its wake, whose own height
+        is then the reference and nothing is cut.  Without a positive column under the core, all
+        columns count.
+
     top_halo : float
         The top extension (``top_frac``) only through foreground brighter than this many times the
         halo beside the object (0: off; not in the paper; session 23): the 90th percentile of the
@@ -1498,7 +1507,7 @@ def grow_boxes(
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide, side, top_halo, top_min_px)
+                                            sf, cover_wide, side, top_halo, top_min_px, wake_core)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1506,7 +1515,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, False, side, top_halo, top_min_px)
+                                   sf, False, side, top_halo, top_min_px, wake_core)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1520,7 +1529,7 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf, False, side, top_halo, top_min_px)
+                                       cut_core_undo, wake_thick, sf, False, side, top_halo, top_min_px, wake_core)
                 if box is not None:
                     contrast[n] = c3
         if box is None and cores_retry is not None and np.all(np.isfinite(cores_retry[n])) and not large:
@@ -1528,7 +1537,7 @@ def grow_boxes(
             box, c4, _ = _grow_one(img, out[n], cores_retry[n], gx, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, cover_wide, side, top_halo, top_min_px)
+                                   sf, cover_wide, side, top_halo, top_min_px, wake_core)
             if box is not None:
                 contrast[n] = c4
         if box is not None:
@@ -1584,7 +1593,8 @@ def _inside_frac(a, b, x_only=False) -> float:
 
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
-              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0):
+              wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0,
+              wake_core=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1638,10 +1648,10 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
     if max(iw, 0.0) * max(ih, 0.0) < 0.5 * cw1 * ch1:
         return None, contrast, bool(cover_wide)
     if waterline_frac > 0 or wake_frac > 0:
-        core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if cut_core_frac > 0 else None
+        core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if (cut_core_frac > 0 or wake_core > 0) else None
         nx0, ny0, nx1, ny1 = _trim_object(dev, obj, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                           waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo,
-                                          wake_thick)
+                                          wake_thick, wake_core)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac and ny1 - ny0 >= top_min_px:
         tthr = max(k_sigma * sigma, min_contrast, top_frac * peak)
@@ -1683,13 +1693,14 @@ def _last_strong_row(dev, y0, y1, x0, x1, frac):
 
 
 @nb.njit(cache=True, nogil=True)
-def _tall_columns(m, frac, thick=False):
+def _tall_columns(m, frac, thick=False, r0=0, r1=-1):
     """For the object's mask ``m`` (rows, cols): each column's height (from its top pixel to the
     bottom, 0 without one), and the first and last column whose height is at least ``frac``
     times the 75th percentile of the positive heights (``np.percentile``'s float64 value; 0 when
     none is positive); ``(-1, -1)`` when no column is.  As the numpy code of :func:`_trim_object`.
     With ``thick``: each column's number of foreground pixels instead of its height, against
-    ``frac`` times the largest of them."""
+    ``frac`` times the largest of them.  ``r0:r1`` (``r1`` -1: all): the columns whose heights
+    give the reference (the core's, ``wake_core``); all when none of them is positive."""
     rows, cols = m.shape
     ext = np.zeros(cols, np.int64)
     for c in range(cols):
@@ -1702,7 +1713,10 @@ def _tall_columns(m, frac, thick=False):
             if m[r, c]:
                 ext[c] = rows - r
                 break
-    pos = np.sort(ext[ext > 0])
+    sub = ext[max(r0, 0):cols if r1 < 0 else min(r1, cols)]
+    pos = np.sort(sub[sub > 0])
+    if len(pos) == 0:
+        pos = np.sort(ext[ext > 0])
     ref = 0.0
     n = len(pos)
     if thick and n:
@@ -1728,14 +1742,16 @@ def _tall_columns(m, frac, thick=False):
 
 
 def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False,
-                 thick=False):
+                 thick=False, wake_core=0.0):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
     from its background, ``sel`` the object's foreground mask, or ``(labels, object's labels)``.
     ``core`` (``x0, y0, x1, y1``, window pixels, the features' extent) with ``core_frac`` > 0:
     a cut may leave out at most that fraction of the core's height (waterline) or width (wake);
-    beyond it the cut is limited to that, or undone with ``core_undo``."""
+    beyond it the cut is limited to that, or undone with ``core_undo``.  ``wake_core`` (> 0) with ``core``:
+    the wake cut's reference height is the core's columns', its fraction ``wake_core`` (see
+    :func:`grow_boxes`)."""
     x0, y0, x1, y1 = (int(v) for v in ext)
     check = core is not None and core_frac > 0
     if waterline_frac > 0 and y1 - y0 >= 3:
@@ -1754,7 +1770,14 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
         m = np.isin(sel[0][y0:y1, x0:x1], sel[1]) if isinstance(sel, tuple) else sel[y0:y1, x0:x1]
         # each column's height: from its top foreground pixel down to the object's bottom; the
         # first and last column at least wake_frac times their 75th percentile tall (-1: none)
-        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), float(wake_frac), bool(thick))
+        r0, r1, wf = 0, -1, float(wake_frac)
+        if wake_core > 0 and core is not None:  # the reference: the columns under the features
+            r0 = int(np.floor(core[0])) - x0
+            r1 = max(int(np.ceil(core[2])) - x0, r0 + 1)
+            wf = float(wake_core)
+            if r1 <= 0:
+                r0, r1 = 0, -1
+        t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), wf, bool(thick), r0, r1)
         if t0 >= 0:
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
             run = max(3, 0.25 * (x1 - x0))
@@ -2657,6 +2680,11 @@ class ClusterParams:
     box member instead of the front one (tried, worse); ``box_wake_below_px_ir`` (0: off on infrared
     frames; None: ``box_wake_below_px``): a warm boat's halo rim lies below its hull too (the
     rule on IR lost METE on the tuning ``ir`` sequences).
+    Session 25 (helper H20): ``wake_core`` (0: off): the wake cut (``wake_frac``, where a trailing side
+    is set) measures the columns against ``wake_core`` times the 75th percentile height of the columns
+    under the features (the core) instead of ``wake_frac`` times that of all columns (see
+    :func:`grow_boxes`).  Tried 0.3 and 0.5 (tuning 0.3382/17 and 0.3392/17 against 0.3382/15; faint
+    four 0.3663/12 and 0.3628/14 against 0.3662/12): not kept.
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
@@ -2787,6 +2815,7 @@ class ClusterParams:
     size_filter_grown: bool = False
     size_filter_height: bool = True
     wake_thick: bool = False
+    wake_core: float = 0.0
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
@@ -4199,7 +4228,8 @@ class FeatureClusterer:
                 sign_frac=p.grow_sign, sign_max_px=p.grow_sign_max_px, sign_side=sign_side, return_found=True,
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
                 hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
-                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry, top_min_px=p.top_min_px)
+                top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry, top_min_px=p.top_min_px,
+                wake_core=p.wake_core)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
