@@ -621,6 +621,15 @@ class StableFeatureExtractor:
         horizon and ``band_px`` > 0; elsewhere, and without a horizon, every feature may be held).
         True by default: the boats are there, and Lucas-Kanade on every unmatched feature of
         the frame cost 14 % of the stage's time at 640x480.
+    far_px, far_upscale, far_threshold, far_max_keypoints
+        The far water at a finer scale (session 25, H21; ``far_px`` 0, the default, turns it
+        off): the band's rows from its top (``band_above_px`` above the horizon) to ``far_px``
+        (source pixels) below the horizon are searched on a copy upscaled ``far_upscale`` times
+        (CenSurE threshold ``far_threshold``; 0 = ``band_threshold``) instead of
+        ``band_upscale`` times, and get their own budget of ``far_max_keypoints`` over one row
+        of ``band_grid_cells[0]`` cells; the band below keeps its pass and budget.  A far ship
+        (a 55x10 px cargo ship) has 0-3 blobs at 2x and 10-23 at 3x (H16), but the whole band
+        at 3x makes the sea's blobs stable too.
     """
 
     def __init__(
@@ -682,6 +691,10 @@ class StableFeatureExtractor:
         redetect_threshold: int = 0,
         redetect_px: float = 3.0,
         redetect_min_confidence: int = 2,
+        far_px: float = 0.0,
+        far_upscale: float = 3.0,
+        far_threshold: int = 0,
+        far_max_keypoints: int = 60,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -766,6 +779,17 @@ class StableFeatureExtractor:
                 int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
             )
         self._star_max_size = int(star_max_size)
+        if not far_px >= 0 or far_upscale < 1 or far_threshold < 0 or far_max_keypoints < 0:
+            raise ValueError("features: far_px, far_threshold, far_max_keypoints must be >= 0, far_upscale >= 1")
+        self.far_px = float(far_px)
+        self.far_upscale = float(far_upscale)
+        self.far_max_keypoints = int(far_max_keypoints)
+        self._far_star = None
+        if self.far_px > 0:
+            self._far_star = cv2.xfeatures2d.StarDetector_create(
+                int(star_max_size), int(far_threshold or band_threshold), int(star_line_threshold_projected),
+                int(star_line_threshold_binarized), int(star_suppress_nonmax_size),
+            )
         self.band_describe_upscaled = bool(band_describe_upscaled)
         self.band_min_size_px = float(band_min_size_px)
         self._band_star = cv2.xfeatures2d.StarDetector_create(
@@ -804,6 +828,7 @@ class StableFeatureExtractor:
         self._grey_prev: np.ndarray | None = None
         self._scale = 1.0
         self._h_prev = np.eye(3)
+        self._far_row = None  # the working-image row where the far water (``far_px``) ends
         self._pred_tree = None  # (expected positions, their cKDTree) of the frame being processed
 
     def _grow(self, need: int) -> None:
@@ -914,9 +939,23 @@ class StableFeatureExtractor:
             row = np.floor(kxy[:, 1] / up) + d0  # the working-image row of each keypoint
             inb = (row >= y0) & (row < y1)
             xy, size, resp = xy[inb], size[inb], resp[inb]
+        yf = self._far_row if self._far_star is not None else None
+        if yf is not None and not y0 < yf:
+            yf = None
+        if yf is not None:  # the far rows go to the finer pass below
+            near = xy[:, 1] >= yf
+            xy, size, resp = xy[near], size[near], resp[near]
         priority = self._priority(xy, pred, self.band_max_keypoints)
         keep = select_keypoints(xy - [0.0, y0], resp, crop.shape[:2], self.band_max_keypoints,
                                 self.band_grid_cells, priority) if len(xy) else np.zeros(0, np.int64)
+        if yf is not None:
+            fxy, fsize, fresp, fkeep = self._far_keypoints(grey, y0, yf, m, pred)
+            if len(fkeep):
+                n0 = len(xy)
+                xy = np.concatenate([xy, fxy])
+                size = np.concatenate([size, fsize])
+                resp = np.concatenate([resp, fresp])
+                keep = np.r_[keep, n0 + fkeep]
         # guided re-detection (``redetect_threshold``): marked by class_id 1
         cls = np.zeros(len(keep), np.int64)
         if self._redetect_star is not None:
@@ -951,6 +990,37 @@ class StableFeatureExtractor:
         size = np.fromiter((k.size for k in dk), np.float64, len(dk)) / (sc * f)
         rescued = np.fromiter((k.class_id == 1 for k in dk), bool, len(dk))
         return xy, size, np.ascontiguousarray(desc, np.float32), rescued
+
+    def _far_keypoints(self, grey: np.ndarray, y0: int, yf: int, m: int, pred):
+        """The far water's keypoints (``far_px``): rows ``y0`` to ``yf`` of the working image
+        searched on a copy upscaled ``far_upscale`` times (with ``m`` rows of context above, as
+        the band, and enough below that the split adds no blind rows), kept by their own budget
+        over one row of cells.  Returns positions, sizes, responses and the kept indices."""
+        up = self.far_upscale
+        ctx = int(np.ceil(1.5 * self._star_max_size / up)) + 2
+        d0, d1 = max(0, y0 - m), min(grey.shape[0], yf + ctx)
+        none = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
+        if d1 - d0 < 4 or self.far_max_keypoints <= 0:
+            return none
+        dcrop = grey[d0:d1]
+        big = dcrop if up == 1 else cv2.resize(dcrop, None, fx=up, fy=up, interpolation=cv2.INTER_LINEAR)
+        kps = self._far_star.detect(big)
+        if not kps:
+            return none
+        kxy = _kp_xy(kps)
+        xy = (kxy + 0.5) / up - 0.5
+        xy[:, 1] += d0
+        size = np.fromiter((k.size for k in kps), np.float64, len(kps)) / up
+        resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
+        row = np.floor(kxy[:, 1] / up) + d0
+        inf = (row >= y0) & (xy[:, 1] < yf)
+        xy, size, resp = xy[inf], size[inf], resp[inf]
+        if not len(xy):
+            return none
+        priority = self._priority(xy, pred, self.far_max_keypoints)
+        keep = select_keypoints(xy - [0.0, y0], resp, (yf - y0, grey.shape[1]), self.far_max_keypoints,
+                                (self.band_grid_cells[0], 1), priority)
+        return xy, size, resp, keep
 
     def _redetect(self, grey: np.ndarray, band: tuple[int, int], kept: np.ndarray):
         """Guided re-detection (``redetect_threshold`` > 0): keypoints (working-image positions,
@@ -1299,6 +1369,7 @@ class StableFeatureExtractor:
 
         band = None
         line = None
+        self._far_row = None
         if horizon is not None:
             ends = np.asarray(horizon.row_at(np.array([0.0, w_px - 1.0])), np.float64)
             if np.all(np.isfinite(ends)):
@@ -1309,6 +1380,8 @@ class StableFeatureExtractor:
                     y0, y1 = max(0, y0), min(grey.shape[0], y1)
                     if y1 - y0 >= 4:
                         band = (y0, y1)
+                        if self.far_px > 0:
+                            self._far_row = min(y1, int(np.ceil((ends.max() + self.far_px) * self._scale)))
         kxy, ksize, kdesc, rescued = self._keypoints(grey, band)
         act = np.flatnonzero(self._alive)
         radius = 0.0
