@@ -4602,7 +4602,9 @@ class FeatureClusterer:
                     g, ct, fd = self._edge_grow(img, f, bool(left[j]))
                     tch = g[0] <= 1.0 if left[j] else g[0] + g[2] >= ww - 1.0
                     ok1 = (fd and ct >= p.min_contrast and tch
-                           and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9))
+                           and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9)
+                           and g[3] >= 0.35 * b[j, 3]  # not a sliver of the sea's texture
+                           and not (p.max_aspect > 0 and g[2] > p.max_aspect * max(g[3], 1e-9)))  # nor a line
                     if ok1 and p.coast_search_below_px > 0 and self._horizon is not None:
                         ok1 = bool(self._below_horizon(g[None])[0])
                     if ok1 and len(reported):
