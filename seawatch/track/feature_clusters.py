@@ -2459,6 +2459,15 @@ class ClusterParams:
     many seconds of the loss; not run on the tuning sequences (``pan`` 5: the tug's identity, lost at
     the left edge, waited 13 s there and took the sailboat that came in at the same edge).
 
+    Session 25 (helper H19, boats the pan brings back): ``coast_edge_seen`` (False: off): ``coast_edge_s``
+    counted from the last frame the identity's coast was seen (reported) since its loss, not from the
+    loss (``pan`` 2: a boat followed at the edge to 20.4 s, lost at 15.4 s, back in at 26.3 s).
+    ``coast_edge_dy`` (0: off; box heights): an edge look that sees nothing at the expected rows is
+    tried at rows shifted by half a box height at a time up to this, nearest first, under the same
+    checks and not for a sliver (under 0.35 of the box's height) or a line (``max_aspect``): the zoom
+    carries the expected box of a boat far outside the image off its rows.  Neither on: the shift
+    reports other boats and the sea's texture at the edge (faint four worse).
+
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
     extended upward by this many times its height (the expected box was the hull alone, and the
