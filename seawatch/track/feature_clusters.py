@@ -2482,6 +2482,15 @@ class ClusterParams:
     many seconds of the loss; not run on the tuning sequences (``pan`` 5: the tug's identity, lost at
     the left edge, waited 13 s there and took the sailboat that came in at the same edge).
 
+    Session 25 (helper H19, boats the pan brings back): ``coast_edge_seen`` (False: off): ``coast_edge_s``
+    counted from the last frame the identity's coast was seen (reported) since its loss, not from the
+    loss (``pan`` 2: a boat followed at the edge to 20.4 s, lost at 15.4 s, back in at 26.3 s).
+    ``coast_edge_dy`` (0: off; box heights): an edge look that sees nothing at the expected rows is
+    tried at rows shifted by half a box height at a time up to this, nearest first, under the same
+    checks and not for a sliver (under 0.35 of the box's height) or a line (``max_aspect``): the zoom
+    carries the expected box of a boat far outside the image off its rows.  Neither on: the shift
+    reports other boats and the sea's texture at the edge (faint four worse).
+
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
     extended upward by this many times its height (the expected box was the hull alone, and the
@@ -2903,6 +2912,8 @@ class ClusterParams:
     grow_core_retry_ir: bool = True
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
+    coast_edge_seen: bool = False
+    coast_edge_dy: float = 0.0
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -3023,6 +3034,7 @@ class FeatureClusterer:
         self._coast_end: dict = {}  # lost identity -> the time of the loss whose coast has ended (coast_s)
         # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
         self._coast_fail: dict = {}
+        self._coast_seen: dict = {}  # coast_edge_seen: identity -> (loss time, last time its coast was seen)
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         self._report_last: dict = {}  # merge_id_keep_iou: cluster identity -> its report's box (frame _report_last_t)
@@ -4536,11 +4548,20 @@ class FeatureClusterer:
                                                                          | (lbs[:, 0] + lbs[:, 2] > ww - 1.0)))
             if p.coast_edge_s > 0:  # only this long after the loss (a boat back later may be another)
                 tls = np.array([self._lost[int(k)][0] for k in ids], np.float64)
+                if p.coast_edge_seen:  # session 25 (H19): this long after its coast was last seen
+                    tls = np.array([max(tl, self._coast_seen.get(int(k), (None, tl))[1])
+                                    if self._coast_seen.get(int(k), (None, 0.0))[0] == tl else tl
+                                    for k, tl in zip(ids.tolist(), tls.tolist())], np.float64)
                 edge &= t - tls <= p.coast_edge_s + 1e-9
                 wait &= edge
             if p.coast_check and image is not None and edge.any():
                 self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
+        if p.coast_edge_seen:
+            for j in np.flatnonzero(ok):  # seen now (the loss time keys it: a new loss starts afresh)
+                self._coast_seen[int(ids[j])] = (self._lost[int(ids[j])][0], t)
+            if len(self._coast_seen) > 2 * len(self._lost) + 16:
+                self._coast_seen = {k: v for k, v in self._coast_seen.items() if k in self._lost}
         low = None
         if p.coast_retry_s > 0 and p.coast_search_below_px > 0 and self._horizon is not None and len(ids):
             low = self._below_horizon(lbs)  # no retry in the horizon band (its texture comes and goes)
@@ -4605,6 +4626,31 @@ class FeatureClusterer:
             good &= self._below_horizon(grown)
         if len(reported) and good.any():
             good &= ~_covers_a_report(grown, reported)
+        if p.coast_edge_dy > 0 and not good.all():
+            # session 25 (H19): not seen at the expected rows: the zoom carried the expected box of a
+            # boat far outside the image off its rows (pan 2: 30 px below the boat coming back in at the
+            # left edge); looked at again in rows shifted by half a box height at a time, nearest first
+            steps = np.arange(0.5, p.coast_edge_dy + 1e-9, 0.5)
+            for j in np.flatnonzero(~good):
+                for dy in np.stack([-steps, steps], axis=1).ravel():
+                    y = e[j, 1] + dy * e[j, 3]
+                    if y + e[j, 3] <= 0 or y >= hh:
+                        continue
+                    f = e[j].copy()
+                    f[1] = min(max(y, 0.0), hh - f[3])
+                    g, ct, fd = self._edge_grow(img, f, bool(left[j]))
+                    tch = g[0] <= 1.0 if left[j] else g[0] + g[2] >= ww - 1.0
+                    ok1 = (fd and ct >= p.min_contrast and tch
+                           and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9)
+                           and g[3] >= 0.35 * b[j, 3]  # not a sliver of the sea's texture
+                           and not (p.max_aspect > 0 and g[2] > p.max_aspect * max(g[3], 1e-9)))  # nor a line
+                    if ok1 and p.coast_search_below_px > 0 and self._horizon is not None:
+                        ok1 = bool(self._below_horizon(g[None])[0])
+                    if ok1 and len(reported):
+                        ok1 = not bool(_covers_a_report(g[None], reported)[0])
+                    if ok1:
+                        grown[j], contrast[j], found[j], good[j] = g, ct, True, True
+                        break
         for j in np.flatnonzero(good):
             i = sel[j]
             ok[i] = True
