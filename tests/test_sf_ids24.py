@@ -27,7 +27,8 @@ OFF_J = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=
              relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False,
              split_follow_box=0.0, relink_min_s=0.0,
              box_wake_below_px=0.0,  # session 24's wake cut (on by default) would cut the two-point boxes
-             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0)  # off unless a test sets them
+             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0,
+             relink_young_after_s=0.0)  # off unless a test sets them
 
 
 def _jump_run(jump_pts=P2, **kw):
@@ -97,7 +98,8 @@ OFF_S = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=
              hand_over_relinked=False, split_follow_box=0.0, relink_size_ratio=0.0,
              relink_side_h_ratio=3.0, relink_undo_hand_over=False,
              box_wake_below_px=0.0,  # session 24's wake cut (on by default) would cut the two-point boxes
-             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0)  # off unless a test sets them
+             relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0,
+             relink_young_after_s=0.0)  # off unless a test sets them
 NEW_LOW = [[20, 116], [30, 132]]  # a cluster about 20 px tall on the small boat's row (nearer its box)
 
 

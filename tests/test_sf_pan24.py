@@ -10,7 +10,8 @@ from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.0, relink_s=10.0, coast_s=0.0,
            relink_view_px=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False, hand_over_relinked=False,
            split_follow_box=0.0, relink_min_s=0.0, box_wake_below_px=0.0,
-           relink_jump_iou=0.0, relink_aspect_ratio=0.0, relink_px=20.0, relink_young_s=1.0)
+           relink_jump_iou=0.0, relink_aspect_ratio=0.0, relink_px=20.0, relink_young_s=1.0,
+           relink_young_after_s=0.0)  # the step itself on by default since session 25: off unless named
 
 A = [[100, 60], [120, 70]]  # boat A's features (box about 24 x 14 px)
 N = [[132, 60], [152, 70]]  # boat N's, 8 px right of A's box, moving the other way (apart in the graph)
@@ -41,8 +42,8 @@ def _run(t_born, **kw):
     return int(t5.ids[0]), ids[lost], ids[kept], c
 
 
-def test_off_by_default():
-    assert ClusterParams().relink_young_after_s == 0.0
+def test_on_since_session_25():
+    assert ClusterParams().relink_young_after_s == 1.0
 
 
 def test_born_together_young_alone_swaps_and_the_new_step_keeps_each_its_own():

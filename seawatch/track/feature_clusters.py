@@ -2646,7 +2646,7 @@ class ClusterParams:
     this factor (either way; not for an identity lost at the image's side edge, whose box is clipped, nor
     for boxes under 2 px): on ``ir`` 8 at 15.5 s and ``ir`` 7 at 18.0 s the sailboat's identity (a box
     14 x 18 and 5 x 8 px) went to the far cargo ship's new cluster (53 x 11, 52 x 13 px), x6.2 and x6.4.
-    ``relink_young_after_s`` (0: off; session 24, helper H12): ``relink_young_s``'s young cluster takes
+    ``relink_young_after_s`` (0: off; session 24, helper H12; on by default since session 25: 1 s): ``relink_young_s``'s young cluster takes
     the lost identity only if it was born at least this many seconds after the lost identity's own
     cluster (a boat's new cluster is born after its old one; two boats born together, moving apart,
     do not exchange identities when one is lost).  ``relink_own_speed_k`` (0: off; H12): the relink
@@ -2927,7 +2927,7 @@ class ClusterParams:
     gate_dv_px_s_ir: float = 0.0
     gate_ema_s_ir: float = 1.0
     merge_id_major_ir: bool = True
-    relink_young_after_s: float = 0.0
+    relink_young_after_s: float = 1.0
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
     coast_drop_alt: bool = True
