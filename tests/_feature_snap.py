@@ -43,3 +43,36 @@ def shift(dx):
     h = np.eye(3)
     h[0, 2] = dx
     return h
+
+
+def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240), hull=(100, 60, 140, 70), **kw):
+    """A dark hull (``hull``: x0, y0, x1, y1, exclusive, on a grey sea of ``shape``) seen with two
+    features for 6 frames (0.1 s apart); then its features are gone and the camera moves the content
+    by each of ``moves`` (px along x, one per frame); ``boats`` (one per frame, default all True):
+    whether the hull is drawn; ``dys`` (``dxs``): how many px below its rows (right of where the camera
+    carried it) it is drawn, the boat's own motion, which the camera does not give.  ``kw``: fields of
+    ``ClusterParams`` over the base (no confirmation, relink 10 s, coast 5 s, session 24's second looks
+    off).  Returns the clusterer, the hull's identity and the tracks of each frame after the loss."""
+    from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+
+    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
+    base.update(kw)
+    c = FeatureClusterer(ClusterParams(**base))
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]),
+                         dark_box_sea(shape, hull, k))
+    assert len(tr) == 1
+    ident = int(tr.ids[0])
+    out = []
+    none = (np.zeros((0, 2)), np.zeros((0, 2)))
+    dx = 0.0
+    for j, m in enumerate(moves):
+        dx += m
+        fi = 6 + j
+        dy = 0 if dys is None else dys[j]
+        ex = 0 if dxs is None else dxs[j]
+        box = (hull[0], hull[1] + dy, hull[2], hull[3] + dy)
+        img = dark_box_sea(shape, box, fi, dx=int(dx) + ex, boat=True if boats is None else boats[j])
+        out.append(c.update(snap(*none, 0.1 * fi, fi, [], h=shift(m)), img)[1])
+    return c, ident, out

@@ -4,7 +4,7 @@ carried it across) is reported with its identity, the part of it in view."""
 
 import numpy as np
 
-from _feature_snap import dark_box_sea, shift, snap
+from _feature_snap import dark_box_sea, hull_lost_then_moved
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 from seawatch.types import TrackState
 
@@ -18,27 +18,8 @@ def sea(seed, dx=0, boat=True):
 
 
 def run(moves, boats=None, **kw):
-    """The hull seen with its features for 6 frames; then its features are gone and the camera moves
-    the content by each of ``moves`` (px along x, one per frame); ``boats`` (one per frame, default
-    all True): whether the hull is drawn.  Returns the clusterer, the hull's identity and the tracks
-    of each frame after the loss."""
-    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)  # H10's looks off
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
-    tr = None
-    for k in range(6):
-        _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]), sea(k))
-    assert len(tr) == 1
-    ident = int(tr.ids[0])
-    out = []
-    none = (np.zeros((0, 2)), np.zeros((0, 2)))
-    dx = 0.0
-    for j, m in enumerate(moves):
-        dx += m
-        fi = 6 + j
-        boat = True if boats is None else boats[j]
-        out.append(c.update(snap(*none, 0.1 * fi, fi, [], h=shift(m)), sea(fi, dx=int(dx), boat=boat))[1])
-    return c, ident, out
+    """:func:`_feature_snap.hull_lost_then_moved` with this file's hull (session 24's second looks off)."""
+    return hull_lost_then_moved(moves, boats, shape=SHAPE, hull=HULL, **kw)
 
 
 def test_on_by_default_since_session_24_and_off_the_coast_ends_outside():

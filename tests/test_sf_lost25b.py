@@ -4,42 +4,16 @@ identity's coast was seen, not from the loss; ``coast_edge_dy``: an edge look th
 the expected rows (the zoom moved the expected box of a boat far outside the image off its rows) is
 tried at rows shifted by half a box height at a time, nearest first."""
 
-import numpy as np
-
-from _feature_snap import dark_box_sea, shift, snap
-from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+from _feature_snap import hull_lost_then_moved
+from seawatch.track.feature_clusters import ClusterParams
 
 SHAPE = (160, 240)
 HULL = (100, 60, 140, 70)  # x0, y0, x1, y1 (exclusive) of the dark hull, 40 x 10 px
 
 
 def run(moves, boats, dys=None, dxs=None, **kw):
-    """The hull seen with its features for 6 frames (0.1 s apart); then its features are gone, the
-    camera moves the content by each of ``moves`` (px along x, one per frame), ``boats`` says whether
-    the hull is drawn and ``dys`` (``dxs``) how many px below its rows (right of where the camera
-    carried it): the boat's own motion, which the camera does not give.
-    Returns the clusterer, the hull's identity and the tracks of each frame after the loss."""
-    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
-    tr = None
-    for k in range(6):
-        _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]),
-                         dark_box_sea(SHAPE, HULL, k))
-    assert len(tr) == 1
-    ident = int(tr.ids[0])
-    out = []
-    none = (np.zeros((0, 2)), np.zeros((0, 2)))
-    dx = 0.0
-    for j, m in enumerate(moves):
-        dx += m
-        fi = 6 + j
-        dy = 0 if dys is None else dys[j]
-        hull = (HULL[0], HULL[1] + dy, HULL[2], HULL[3] + dy)
-        ex = 0 if dxs is None else dxs[j]
-        img = dark_box_sea(SHAPE, hull, fi, dx=int(dx) + ex, boat=boats[j])
-        out.append(c.update(snap(*none, 0.1 * fi, fi, [], h=shift(m)), img)[1])
-    return c, ident, out
+    """:func:`_feature_snap.hull_lost_then_moved` with this file's hull."""
+    return hull_lost_then_moved(moves, boats, dys, dxs, shape=SHAPE, hull=HULL, **kw)
 
 
 # out of view for three frames, then back 10 px into view at the left edge, 15 px below its rows
