@@ -6,7 +6,8 @@ sequence, and for every METE pair (a reported box assigned to a boat, IoU > 0) r
 
 * the report's box, the boxes of the clusters it is made of before the box growing (the features'
   extent padded by the keypoints' radius), their core (the features' positions) and after the
-  growing without the stop-15 cuts and with them (``grow_boxes`` is wrapped to see them);
+  growing without the stop-15 cuts and with them (``grow_boxes`` is wrapped to see them: its first
+  call in each frame, the clusters'; the coasts' boxes are grown after it, session 25);
 * the pair's METE weight ``1 / max(n, m)`` and IoU loss ``1 - IoU``;
 * every ``--every``-th frame, what the report's pixels outside the boat's box are: another boat,
   a wake, a reflection (both found by rendering the frame again without them), above the water
@@ -112,6 +113,8 @@ def main(argv=None) -> int:
 
     def wrapped(image, boxes, cores, **k2):
         res = orig(image, boxes, cores, **k2)
+        if "grown" in seen:  # a later call in the frame (the coasts' boxes): keep the clusters', the first
+            return res
         plain = orig(image, boxes, cores, **dict(k2, waterline_frac=0.0, wake_frac=0.0, top_frac=0.0,
                                                    return_contrast=False, return_found=False))
         plain = plain[0] if isinstance(plain, tuple) else plain
