@@ -226,6 +226,23 @@ def _far_still(xy: np.ndarray, row: np.ndarray, zoom: float, p) -> np.ndarray:
     return band
 
 
+def _far_cut(xy: np.ndarray, ei: np.ndarray, ej: np.ndarray, horizon, zoom: float, p) -> np.ndarray:
+    """Which graph edges ``(ei, ej)`` (indices into ``xy``) to keep under ``ClusterParams.far_cut_px``
+    (session 26, helper H22): an edge is dropped when its upper end lies less than ``far_cut_px``
+    (source px, not scaled) under the horizon's row at its column, or above it, and its lower end
+    lies more than ``far_cut_gap_px`` (times ``zoom``) below the upper end.  A feature whose column
+    has no horizon row (NaN) keeps its edges."""
+    ei = np.asarray(ei, np.int64)
+    ej = np.asarray(ej, np.int64)
+    y = xy[:, 1].astype(np.float64)
+    top = np.where(y[ei] <= y[ej], ei, ej)
+    dy = np.abs(y[ei] - y[ej])
+    row = np.asarray(horizon.row_at(xy[top, 0].astype(np.float64)), np.float64)
+    with np.errstate(invalid="ignore"):
+        cut = (y[top] < row + p.far_cut_px) & (dy > p.far_cut_gap_px * zoom)
+    return ~cut
+
+
 def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.ndarray:
     """Whether open sea lies beside each column ``x`` (session 23, ``ClusterParams.far_open_px``):
     at ``far_open_px`` (times the zoom) to the left or to the right of it, the rows from 3 to 1 px
@@ -2744,7 +2761,17 @@ class ClusterParams:
     established velocity, an exponential mean over time of its members' mean velocity with this time
     constant (s), instead of this frame's mean (which follows the newcomers feature by feature);
     ``merge_id_major_ir`` (False: off; infrared frames only): a merged cluster keeps the identity most
-    of its features carried, not the oldest (:func:`assign_identities`' ``major``)."""
+    of its features carried, not the oldest (:func:`assign_identities`' ``major``).
+
+    Session 26 (helper H22, the far strip kept apart from the boats below it; for the extractor's
+    far pass, ``StableFeatureExtractor(far_px=...)``): ``far_cut_px`` (0: off; px, source pixels
+    under the horizon, not scaled by the zoom, as the extractor's ``far_px``): a graph edge whose
+    upper feature lies less than this far under the horizon (or above it) and whose lower feature
+    lies more than ``far_cut_gap_px`` (px, times the zoom) below the upper one is dropped from the
+    frame's graph (:func:`_far_cut`), so the far strip's features (a far ship's, the far water's
+    and the horizon's blobs) do not join a boat lying below the strip, and no cluster spans a far
+    ship and a boat below it; a boat straddling the strip's line stays joined through its shorter
+    edges.  Without a horizon nothing is dropped."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2931,6 +2958,8 @@ class ClusterParams:
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
     coast_drop_alt: bool = True
+    far_cut_px: float = 0.0
+    far_cut_gap_px: float = 6.0
 
 
 class FeatureClusterer:
@@ -4081,6 +4110,9 @@ class FeatureClusterer:
             floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 floor, still, p.still_radius_px)
+        if p.far_cut_px > 0 and horizon is not None and len(ei):
+            keep = _far_cut(snap.xy[st], ei, ej, horizon, max(float(zoom), 1e-3), p)
+            ei, ej = ei[keep], ej[keep]
         # indices into the snapshot
         vel = None
         if p.merge_dv_px_s > 0:
