@@ -1,0 +1,96 @@
+"""The far strip kept apart from the boats below it (issue #8, session 26 H22):
+``ClusterParams.far_cut_px`` (0: off) and ``far_cut_gap_px`` drop a graph edge whose upper end lies
+in the far strip (less than ``far_cut_px`` under the horizon, or above it) and whose lower end lies
+more than ``far_cut_gap_px`` (times the zoom) below it, so the far strip's features (a far ship, the
+far water's blobs) do not join a boat lying below the strip."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from seawatch.detect.features import FeatureSnapshot
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _far_cut
+
+ROW = 100.0  # the horizon's row
+
+
+class _Level:
+    def __init__(self, r):
+        self.r = float(r)
+
+    def row_at(self, x):
+        return np.full(np.shape(x), self.r)
+
+
+def _snap(k, pts, v=(12.0, 0.0), seed=0):
+    """Frame ``k`` (0.04 s apart): stable features at ``pts`` (x, dy under the horizon), all moving
+    at ``v`` px/s with 0.3 px/s noise; a 320x240 image."""
+    rng = np.random.default_rng(seed + 100 * k)
+    xy = np.array([(x + v[0] * 0.04 * k, ROW + dy) for x, dy in pts], float)
+    n = len(xy)
+    hist = np.asarray(v, float) + rng.normal(0, 0.3, (n, 4, 2))
+    return FeatureSnapshot(
+        t_s=0.04 * k, frame_index=k, ids=np.arange(n) + 10, slots=np.arange(n), xy=xy,
+        size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),
+        matched=np.ones(n, bool), velocity=hist[:, -1], history=hist, image_velocity=hist[:, -1],
+        homography=np.eye(3), dt_s=0.04, n_keypoints=n, n_matched=n, shape=(240, 320),
+    )
+
+
+def _params(**kw):
+    return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0,
+                         grow_box=0.0, **kw)
+
+
+def _boxes(params, pts, zoom=1.0, frames=10):
+    c = FeatureClusterer(params)
+    hz = _Level(ROW)
+    for k in range(frames):
+        dets, _ = c.update(_snap(k, pts), horizon=hz, zoom=zoom)
+    return dets.boxes.copy()
+
+
+# a boat whose top lies 16 px under the horizon, and two blobs of the far strip 2-3 px under it above
+# the boat, moving alike (the far water's blobs joining a slow boat; a far ship above a near boat)
+BOAT = [(150.0, 16.0), (162.0, 17.0), (156.0, 22.0), (170.0, 24.0), (145.0, 26.0)]
+FAR = [(152.0, 2.0), (166.0, 3.0)]
+
+
+def test_off_by_default_and_joined_when_off():
+    d = ClusterParams()
+    assert d.far_cut_px == 0.0
+    b = _boxes(_params(), BOAT + FAR)
+    top = b[:, 1].min()
+    assert top <= ROW + 3.0  # the far strip's blobs stretch the boat's box up to them
+
+
+def test_far_strip_not_joined_to_the_boat_below():
+    b = _boxes(_params(far_cut_px=12.0, far_cut_gap_px=6.0), BOAT + FAR)
+    boat = [bb for bb in b if bb[1] + bb[3] >= ROW + 24]
+    assert len(boat) == 1
+    assert boat[0][1] >= ROW + 13.0  # the box starts at the boat's own top (16 px, less the margin)
+    assert not any(bb[1] <= ROW + 3.0 and bb[1] + bb[3] >= ROW + 24 for bb in b)
+
+
+def test_boat_straddling_the_line_stays_one():
+    # features every 3-4 rows from 6 to 26 px under the horizon: the short edges keep it one cluster
+    pts = [(150.0 + 3 * (i % 4), 6.0 + 3.3 * i) for i in range(7)]
+    b = _boxes(_params(far_cut_px=12.0, far_cut_gap_px=6.0), pts)
+    assert len(b) == 1
+    assert np.allclose(b, _boxes(_params(), pts))  # the same box as with the step off
+    assert b[0][1] <= ROW + 6.5 and b[0][1] + b[0][3] >= ROW + 20.0
+
+
+def test_far_cut_edges_and_zoom():
+    xy = np.array([[100.0, ROW + 2.0], [105.0, ROW + 20.0], [110.0, ROW + 6.0],
+                   [100.0, ROW + 30.0], [100.0, ROW + 50.0]])
+    ei = np.array([0, 0, 1, 3])
+    ej = np.array([1, 2, 2, 4])
+    p = _params(far_cut_px=12.0, far_cut_gap_px=6.0)
+    # 0-1: strip to 18 px below: cut; 0-2: 4 px: kept; 1-2: upper end 2 at 6 px, 14 below: cut;
+    # 3-4: both below the strip: kept
+    assert _far_cut(xy, ei, ej, _Level(ROW), 1.0, p).tolist() == [False, True, False, True]
+    # at zoom 3 the gap is 18 px: 0-1 (18 px) and 1-2 (14 px) kept
+    assert _far_cut(xy, ei, ej, _Level(ROW), 3.0, p).tolist() == [True, True, True, True]
+    # no horizon row (NaN) at a column: kept
+    assert _far_cut(xy, ei, ej, _Level(np.nan), 1.0, p).all()
