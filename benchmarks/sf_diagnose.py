@@ -269,7 +269,8 @@ def _process(trk, frame, snap=None, record=None):
         None if hz is None else (hz.y_left, hz.y_right, hz.width) if hasattr(hz, "y_left") else hz).encode()
         + repr(zoom).encode() + (b"" if used is None else used)).hexdigest()
     if snap is None:
-        snap = trk.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom, motion_prior=prior)
+        snap = trk.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom, motion_prior=prior,
+                                     ir=frame.modality == Modality.IR)
         if record is not None:
             record.append((digest, pickle.dumps(snap, protocol=pickle.HIGHEST_PROTOCOL)))
     else:

@@ -630,6 +630,11 @@ class StableFeatureExtractor:
         of ``band_grid_cells[0]`` cells; the band below keeps its pass and budget.  A far ship
         (a 55x10 px cargo ship) has 0-3 blobs at 2x and 10-23 at 3x (H16), but the whole band
         at 3x makes the sea's blobs stable too.
+    far_skip_ir
+        Session 26 (H22; False, the default: off): the far pass (``far_px``) only on visible
+        frames; a frame :meth:`process` is given with ``ir=True`` keeps the band's own pass in
+        the far rows (the 3x pass with ``far_threshold`` 10 loses the far boats of the tuning
+        ``ir`` sequences).
     """
 
     def __init__(
@@ -695,6 +700,7 @@ class StableFeatureExtractor:
         far_upscale: float = 3.0,
         far_threshold: int = 0,
         far_max_keypoints: int = 60,
+        far_skip_ir: bool = False,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
@@ -782,6 +788,7 @@ class StableFeatureExtractor:
         if not far_px >= 0 or far_upscale < 1 or far_threshold < 0 or far_max_keypoints < 0:
             raise ValueError("features: far_px, far_threshold, far_max_keypoints must be >= 0, far_upscale >= 1")
         self.far_px = float(far_px)
+        self.far_skip_ir = bool(far_skip_ir)
         self.far_upscale = float(far_upscale)
         self.far_max_keypoints = int(far_max_keypoints)
         self._far_star = None
@@ -1316,7 +1323,7 @@ class StableFeatureExtractor:
 
     # ----------------------------------------------------------------- main
     def process(self, image: np.ndarray, t_s: float, frame_index: int | None = None,
-                horizon=None, zoom: float = 1.0, motion_prior=None) -> FeatureSnapshot:
+                horizon=None, zoom: float = 1.0, motion_prior=None, ir: bool = False) -> FeatureSnapshot:
         """Detect, describe and match the features of one frame; update the active set.
 
         Parameters
@@ -1334,6 +1341,7 @@ class StableFeatureExtractor:
             to this one predicted from its telemetry, in source pixels (e.g.
             :meth:`seawatch.camera.model.CameraModel.rotation_homography`); used as the
             ``motion_prior`` setting says.
+        ir : whether the frame is infrared (only ``far_skip_ir`` uses it).
 
         Raises
         ------
@@ -1380,7 +1388,7 @@ class StableFeatureExtractor:
                     y0, y1 = max(0, y0), min(grey.shape[0], y1)
                     if y1 - y0 >= 4:
                         band = (y0, y1)
-                        if self.far_px > 0:
+                        if self.far_px > 0 and not (ir and self.far_skip_ir):
                             self._far_row = min(y1, int(np.ceil((ends.max() + self.far_px) * self._scale)))
         kxy, ksize, kdesc, rescued = self._keypoints(grey, band)
         act = np.flatnonzero(self._alive)

@@ -2771,7 +2771,9 @@ class ClusterParams:
     frame's graph (:func:`_far_cut`), so the far strip's features (a far ship's, the far water's
     and the horizon's blobs) do not join a boat lying below the strip, and no cluster spans a far
     ship and a boat below it; a boat straddling the strip's line stays joined through its shorter
-    edges.  Without a horizon nothing is dropped."""
+    edges.  Without a horizon nothing is dropped.  ``far_cut_ir`` (False: off): the cut on infrared
+    frames too (by default visible frames only, as the extractor's ``far_skip_ir``; on the tuning
+    ``ir`` sequences the cut alone added switches)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -2960,6 +2962,7 @@ class ClusterParams:
     coast_drop_alt: bool = True
     far_cut_px: float = 0.0
     far_cut_gap_px: float = 6.0
+    far_cut_ir: bool = False
 
 
 class FeatureClusterer:
@@ -4110,7 +4113,7 @@ class FeatureClusterer:
             floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 floor, still, p.still_radius_px)
-        if p.far_cut_px > 0 and horizon is not None and len(ei):
+        if p.far_cut_px > 0 and horizon is not None and len(ei) and (p.far_cut_ir or not ir):
             keep = _far_cut(snap.xy[st], ei, ej, horizon, max(float(zoom), 1e-3), p)
             ei, ej = ei[keep], ej[keep]
         # indices into the snapshot
@@ -5010,7 +5013,7 @@ class StableFeatureTracker:
         try:
             hz, zoom, prior = self.extractor_inputs(frame)
             snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom,
-                                          motion_prior=prior)
+                                          motion_prior=prior, ir=frame.modality == Modality.IR)
         except ValueError as exc:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
         self.last_snapshot = snap
