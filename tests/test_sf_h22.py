@@ -94,3 +94,55 @@ def test_far_cut_edges_and_zoom():
     assert _far_cut(xy, ei, ej, _Level(ROW), 3.0, p).tolist() == [True, True, True, True]
     # no horizon row (NaN) at a column: kept
     assert _far_cut(xy, ei, ej, _Level(np.nan), 1.0, p).all()
+
+
+# the extractor side: ``far_skip_ir`` (False: off) keeps the far pass off infrared frames
+
+
+def _far_scene():
+    """A far 'ship' 3 rows below the horizon (row 100) with 1-px marks (as tests/test_features_far25b.py)."""
+    img = np.full((240, 320), 100, np.uint8)
+    img[103:107, 140:180] = 140
+    for x in range(141, 180, 4):
+        img[104 + x % 2, x] = 60
+    return img
+
+
+def _ext_run(ir, n=4, **kw):
+    from seawatch.detect.features import StableFeatureExtractor
+
+    ext = StableFeatureExtractor(nominal_fps=25.0, **kw)
+    for f in range(n):
+        snap = ext.process(_far_scene(), f / 25.0, horizon=_Level(ROW), ir=ir)
+    return snap
+
+
+def _same(a, b):
+    return np.array_equal(a.ids, b.ids) and np.array_equal(a.xy, b.xy)
+
+
+def test_far_skip_ir_off_by_default_and_on_visible_frames():
+    from seawatch.detect.features import StableFeatureExtractor
+
+    assert StableFeatureExtractor().far_skip_ir is False
+    on = _ext_run(False, far_px=12)
+    assert not _same(on, _ext_run(False))  # the far pass changes the far rows' keypoints
+    assert _same(_ext_run(True, far_px=12), on)  # off: the ir flag changes nothing
+    assert _same(_ext_run(False, far_px=12, far_skip_ir=True), on)  # visible frames keep the far pass
+
+
+def test_far_skip_ir_leaves_infrared_frames_as_without_the_far_pass():
+    assert _same(_ext_run(True, far_px=12, far_skip_ir=True), _ext_run(True))
+
+
+def test_far_cut_on_visible_frames_only_unless_far_cut_ir():
+    def top(ir, **kw):
+        c = FeatureClusterer(_params(far_cut_px=12.0, far_cut_gap_px=6.0, **kw))
+        for k in range(10):
+            dets, _ = c.update(_snap(k, BOAT + FAR), horizon=_Level(ROW), ir=ir)
+        b = dets.boxes
+        return bool(np.any((b[:, 1] <= ROW + 3.0) & (b[:, 1] + b[:, 3] >= ROW + 24.0)))  # one box spans both
+
+    assert top(True)  # infrared: not cut
+    assert not top(True, far_cut_ir=True)
+    assert not top(False)
