@@ -13,13 +13,13 @@ from seawatch.track import feature_clusters as F
 def _reference_grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
                         waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0,
                         cut_core_undo=False, wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0,
-                        top_halo=0.0, top_min_px=0.0, wake_core=0.0):
+                        top_halo=0.0, top_min_px=0.0, wake_core=0.0, wake_front=0.0):
     """``_grow_one`` as it was before session 18 (np.percentile, cv2.morphologyEx,
     cv2.connectedComponentsWithStats, np.unique / setdiff1d / isin); it has no ``wake_thick``
     (session 19), no ``sign_frac`` (session 20), no ``cover_wide`` (session 21) and no ``sign_side``
     (session 22; it acts only with ``sign_frac``) and no ``top_halo`` (session 23); ``top_min_px``
-    (session 24) as there, all off by default; no ``wake_core`` (session 25, H20)."""
-    assert not wake_thick and sign_frac == 0 and not cover_wide and top_halo == 0 and wake_core == 0
+    (session 24) as there, all off by default; no ``wake_core`` (session 25, H20) and no ``wake_front`` (session 26, H23)."""
+    assert not wake_thick and sign_frac == 0 and not cover_wide and top_halo == 0 and wake_core == 0 and wake_front == 0
     hh, ww = img.shape[:2]
     x, y, w, h = box
     x0, y0 = int(max(0, np.floor(x - gx))), int(max(0, np.floor(y - gy)))

@@ -1350,7 +1350,7 @@ def grow_boxes(
     cover_wide: bool = False, hints: np.ndarray | None = None, hint_pad_px: float = 0.0,
     hint_core: float = 0.0, hint_core_x: bool = False, sign_side: np.ndarray | None = None,
     top_halo: float = 0.0, cores_retry: np.ndarray | None = None, top_min_px: float = 0.0,
-    wake_core: float = 0.0,
+    wake_core: float = 0.0, wake_front: float = 0.0,
 ) -> np.ndarray | tuple:
     """Grow each cluster's box to the object around it with a local segmentation.
 
@@ -1464,6 +1464,11 @@ def grow_boxes(
         paper; session 19): a wake seen at a slant (a Kelvin arm running down and back from a small
         boat) is a thin line whose columns' heights to the object's bottom are large.
 
+    wake_front : float
+        The wake cut (where ``wake_frac`` is on and a trailing side is set) takes its reference height
+        from the columns of this fraction of the object's width at its leading end (the side away from
+        ``trail``: the hull leads its wake), times ``wake_core`` where that is on, else ``wake_frac``
+        (0: off; session 26, H23).
     wake_core : float
         The wake cut (where ``wake_frac`` is on) drops the columns lower than this fraction of the
         75th percentile of the heights of the columns under the core (the features' extent)
@@ -1524,7 +1529,7 @@ def grow_boxes(
         box, contrast[n], wider = _grow_one(img, out[n], cores[n], gx, gy, large, b, k_sigma, min_contrast,
                                             max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                             int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                            sf, cover_wide, side, top_halo, top_min_px, wake_core)
+                                            sf, cover_wide, side, top_halo, top_min_px, wake_core, wake_front)
         if box is None and wider and wide_grow_px > gx:
             # a hull longer than the window reaches its left and right edges as a coastline does
             # (or fills its border strips): look again in a window wide enough to hold it (a
@@ -1532,7 +1537,7 @@ def grow_boxes(
             box, c2, _ = _grow_one(img, out[n], cores[n], wide_grow_px, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, False, side, top_halo, top_min_px, wake_core)
+                                   sf, False, side, top_halo, top_min_px, wake_core, wake_front)
             if box is not None:
                 contrast[n] = c2
         if (box is None and hints is not None and np.all(np.isfinite(hints[n])) and not large
@@ -1546,7 +1551,7 @@ def grow_boxes(
                 box, c3, _ = _grow_one(img, np.array([ux0, uy0, ux1 - ux0, uy1 - uy0]), cores[n], pad, pad, large,
                                        b, k_sigma, min_contrast, max_fill, peak_frac, waterline_frac,
                                        wake_frac * (trail[n] != 0), int(trail[n]), top_frac, cut_core_frac,
-                                       cut_core_undo, wake_thick, sf, False, side, top_halo, top_min_px, wake_core)
+                                       cut_core_undo, wake_thick, sf, False, side, top_halo, top_min_px, wake_core, wake_front)
                 if box is not None:
                     contrast[n] = c3
         if box is None and cores_retry is not None and np.all(np.isfinite(cores_retry[n])) and not large:
@@ -1554,7 +1559,7 @@ def grow_boxes(
             box, c4, _ = _grow_one(img, out[n], cores_retry[n], gx, gy, large, b, k_sigma, min_contrast,
                                    max_fill, peak_frac, waterline_frac, wake_frac * (trail[n] != 0),
                                    int(trail[n]), top_frac, cut_core_frac, cut_core_undo, wake_thick,
-                                   sf, cover_wide, side, top_halo, top_min_px, wake_core)
+                                   sf, cover_wide, side, top_halo, top_min_px, wake_core, wake_front)
             if box is not None:
                 contrast[n] = c4
         if box is not None:
@@ -1611,7 +1616,7 @@ def _inside_frac(a, b, x_only=False) -> float:
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
               wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0,
-              wake_core=0.0):
+              wake_core=0.0, wake_front=0.0):
     """One box of :func:`grow_boxes` in a window grown by ``gx`` (columns) and ``gy`` (rows):
     ``(grown box or None, contrast, wider)``; ``wider`` when a wider window may tell more: the
     components touching the core were all left out for reaching the window's left or right
@@ -1668,7 +1673,7 @@ def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_f
         core_w = (cx - x0, cy - y0, cx + cw - x0, cy + ch - y0) if (cut_core_frac > 0 or wake_core > 0) else None
         nx0, ny0, nx1, ny1 = _trim_object(dev, obj, (nx0 - x0, ny0 - y0, nx1 - x0, ny1 - y0),
                                           waterline_frac, wake_frac, trail, core_w, cut_core_frac, cut_core_undo,
-                                          wake_thick, wake_core)
+                                          wake_thick, wake_core, wake_front)
         nx0, nx1, ny0, ny1 = nx0 + x0, nx1 + x0, ny0 + y0, ny1 + y0
     if top_frac > 0 and top_frac < peak_frac and ny1 - ny0 >= top_min_px:
         tthr = max(k_sigma * sigma, min_contrast, top_frac * peak)
@@ -1759,7 +1764,7 @@ def _tall_columns(m, frac, thick=False, r0=0, r1=-1):
 
 
 def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, core_frac=0.0, core_undo=False,
-                 thick=False, wake_core=0.0):
+                 thick=False, wake_core=0.0, wake_front=0.0):
     """The object's extent ``ext = (x0, y0, x1, y1)`` (window pixels, end exclusive) with its
     reflection cut and its wake's columns dropped on the side ``trail`` (-1 left, +1 right; see
     :func:`grow_boxes`, ``waterline_frac`` and ``wake_frac``); ``dev`` is the window's deviation
@@ -1768,7 +1773,8 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
     a cut may leave out at most that fraction of the core's height (waterline) or width (wake);
     beyond it the cut is limited to that, or undone with ``core_undo``.  ``wake_core`` (> 0) with ``core``:
     the wake cut's reference height is the core's columns', its fraction ``wake_core`` (see
-    :func:`grow_boxes`)."""
+    :func:`grow_boxes`).  ``wake_front`` (> 0): the reference columns are instead that fraction of the
+    object's width at its leading end (the side away from ``trail``)."""
     x0, y0, x1, y1 = (int(v) for v in ext)
     check = core is not None and core_frac > 0
     if waterline_frac > 0 and y1 - y0 >= 3:
@@ -1794,6 +1800,9 @@ def _trim_object(dev, sel, ext, waterline_frac, wake_frac, trail=0, core=None, c
             wf = float(wake_core)
             if r1 <= 0:
                 r0, r1 = 0, -1
+        if wake_front > 0:  # session 26 (H23): the reference: the columns at the object's leading end
+            nf = max(int(np.ceil(wake_front * (x1 - x0))), 1)
+            r0, r1 = ((x1 - x0) - nf, x1 - x0) if trail < 0 else (0, nf)
         t0, t1 = _tall_columns(np.ascontiguousarray(m, np.bool_), wf, bool(thick), r0, r1)
         if t0 >= 0:
             # only a long run of low columns is a wake (not a bow or stern beside a mast)
@@ -2711,6 +2720,23 @@ class ClusterParams:
     under the features (the core) instead of ``wake_frac`` times that of all columns (see
     :func:`grow_boxes`).  Tried 0.3 and 0.5 (tuning 0.3382/17 and 0.3392/17 against 0.3382/15; faint
     four 0.3663/12 and 0.3628/14 against 0.3662/12): not kept.
+    Session 26 (helper H23, the rib's box): ``wake_track_s`` (seconds; 0: off): where a cluster's box
+    members move slower than ``wake_min_px_s`` across the image (a small fast boat whose features sit
+    on its wake's foam, which stays in the water), the wake cut's trailing side is taken from the
+    cluster's own track instead: the least-squares velocity along x of the centres of its boxes grown
+    over the last ``wake_track_s`` seconds (consecutive frames, at least ``wake_track_n`` boxes), each
+    centre carried into the frame by the camera's motion (the features' homographies), so relative to
+    the scene; the side is set where that velocity is at least ``wake_track_px_s`` px/s (0: the
+    ``wake_min_px_s``).  ``wake_hold_s`` (seconds; 0: off): instead (or first), a cluster whose members
+    are too slow keeps the trailing side its members last gave, for at most this long (the rib's box
+    centre jumps between its hull and hull plus foam, so its track's sign is wrong at its birth).
+``wake_front`` (fraction of the object's width; 0: off): the wake cut's reference height is the
+    75th percentile of the columns in that fraction of the grown object at its leading end (the side
+    away from the trailing side), not of all its columns (nor of the core's, ``wake_core``): where the
+    rib's features lie on its foam, the core's and all columns' heights are the foam's.
+    ``wake_track_ir`` (True): these also on infrared frames.  ``wake_core_ir`` (None: as
+    ``wake_core``; 0: off on infrared frames): ``wake_core`` on infrared frames (H20's ``wake_core`` cost
+    ``ir`` 2 two switches).
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
@@ -2854,6 +2880,13 @@ class ClusterParams:
     size_filter_height: bool = True
     wake_thick: bool = False
     wake_core: float = 0.0
+    wake_core_ir: float | None = None
+    wake_track_s: float = 0.0
+    wake_track_px_s: float = 0.0
+    wake_track_n: int = 4
+    wake_track_ir: bool = True
+    wake_hold_s: float = 0.0
+    wake_front: float = 0.0
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
@@ -3010,6 +3043,9 @@ class FeatureClusterer:
         self._size_hist: dict = {}  # cluster identity -> deque of (time, w, h) at the reference scale
         self._size_last: dict = {}  # cluster identity -> its box (after the filter) in the last update
         self._size_fi = -1  # frame index of the last update
+        self._trk_hist: dict = {}  # cluster identity -> [(time, box centre x)] in this frame's image (wake_track_s)
+        self._trk_hist_t = -1  # frame index of _trk_hist
+        self._trail_last: dict = {}  # cluster identity -> (time, side) of its last trailing side set by its members (wake_hold_s)
         self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
         self._disp_ring: collections.deque = collections.deque()  # (time, slots, ids, scene positions) per frame
         self._disp_c = np.eye(3)  # this frame's image -> the scene reference (box_disp_s)
@@ -3086,6 +3122,64 @@ class FeatureClusterer:
         self._cam_still = True
         self._relink_reset()
         self._size_reset()
+
+    def _track_vx(self, snap: FeatureSnapshot, cids: np.ndarray) -> np.ndarray:
+        """Each cluster's box centre velocity along x (px/s) over the last ``params.wake_track_s``
+        seconds, relative to the scene: the centres of its boxes grown in the frames before, each
+        carried into this frame by the features' homographies, fitted by least squares; NaN where
+        fewer than ``params.wake_track_n`` (at least 2) boxes of consecutive frames are kept (session
+        26, H23).  The stored centres are carried here (once a frame)."""
+        p = self.params
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        out = np.full(len(cids), np.nan)
+        if self._trk_hist_t != self._cluster_boxes_now or not self._trk_hist:
+            self._trk_hist = {}
+            return out
+        hmg = np.asarray(getattr(snap, "homography", None) if getattr(snap, "homography", None) is not None
+                         else np.eye(3), np.float64)
+        fin = bool(np.all(np.isfinite(hmg)))
+        keys = list(self._trk_hist.keys())
+        rows = [np.asarray(self._trk_hist[c], np.float64) for c in keys]
+        allr = np.concatenate(rows, axis=0)
+        if fin and len(allr):
+            q = allr[:, 1:3] @ hmg[:2, :2].T + hmg[:2, 2]
+            w = allr[:, 1:3] @ hmg[2, :2] + hmg[2, 2]
+            ok = np.abs(w) > 1e-12
+            allr[ok, 1:3] = q[ok] / w[ok, None]
+        keep = allr[:, 0] >= t - p.wake_track_s - 1e-9
+        hist, j = {}, 0
+        for c, rr in zip(keys, rows):
+            seg = allr[j:j + len(rr)][keep[j:j + len(rr)]]
+            j += len(rr)
+            if len(seg):
+                hist[c] = seg
+        self._trk_hist = hist
+        nmin = max(int(p.wake_track_n), 2)
+        for i, c in enumerate(cids):
+            seg = hist.get(int(c))
+            if seg is None or len(seg) < nmin:
+                continue
+            tt = seg[:, 0] - seg[:, 0].mean()
+            den = float(tt @ tt)
+            if den > 0:
+                out[i] = float(tt @ (seg[:, 1] - seg[:, 1].mean())) / den
+        return out
+
+    def _track_store(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray) -> None:
+        """Adds this frame's box centres (time, x, y) to each cluster's history (``wake_track_s``)."""
+        t, fi = float(snap.t_s), int(snap.frame_index)
+        if self._trk_hist_t != self._cluster_boxes_now:
+            self._trk_hist = {}
+        hist = {}
+        for i, c in enumerate(cids):
+            b = boxes[i]
+            if not np.all(np.isfinite(b)):
+                continue
+            row = np.array([[t, b[0] + 0.5 * b[2], b[1] + 0.5 * b[3]]])
+            old = self._trk_hist.get(int(c))
+            hist[int(c)] = row if old is None else np.concatenate([np.asarray(old, np.float64), row], axis=0)
+        self._trk_hist = hist
+        self._trk_hist_t = fi
 
     def _size_filter(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
                      grown: np.ndarray | None = None) -> np.ndarray:
@@ -4255,6 +4349,26 @@ class FeatureClusterer:
                 vx /= np.maximum(np.bincount(kb[okv], minlength=n), 1)
                 if p.wake_frac > 0:
                     trail = np.where(np.abs(vx) >= p.wake_min_px_s, -np.sign(vx), 0).astype(np.int64)
+                    if p.wake_track_s > 0:
+                        # session 26 (H23): where the members are too slow (on the wake's foam), the
+                        # trailing side from the motion of the cluster's own box over the last seconds
+                        tv = self._track_vx(snap, cids)
+                        if self._ir and not p.wake_track_ir:
+                            tv[:] = np.nan
+                        thr = p.wake_track_px_s if p.wake_track_px_s > 0 else p.wake_min_px_s
+                        fill = (trail == 0) & np.isfinite(tv) & (np.abs(tv) >= thr)
+                        trail[fill] = -np.sign(tv[fill]).astype(np.int64)
+                    if p.wake_hold_s > 0 and not (self._ir and not p.wake_track_ir):
+                        # session 26 (H23): a cluster whose members slow down under wake_min_px_s (they
+                        # moved onto the wake's foam) keeps its last trailing side for wake_hold_s
+                        t_now = float(snap.t_s)
+                        last = {c: v for c, v in self._trail_last.items() if t_now - v[0] <= p.wake_hold_s}
+                        for i, c in enumerate(cids):
+                            if trail[i] != 0:
+                                last[int(c)] = (t_now, int(trail[i]))
+                            elif int(c) in last:
+                                trail[i] = last[int(c)][1]
+                        self._trail_last = last
                 if p.grow_sign != 0 and p.grow_sign_trail_px_s > 0:  # the sign rule only on the wake's side
                     sign_side = np.where(np.abs(vx) >= p.grow_sign_trail_px_s, -np.sign(vx), 0).astype(np.int64)
             pre_grow = boxes
@@ -4276,7 +4390,10 @@ class FeatureClusterer:
                 cover_wide=p.grow_cover_wide, hints=hints, hint_pad_px=p.grow_hint_pad_px,
                 hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
                 top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry, top_min_px=p.top_min_px,
-                wake_core=p.wake_core)
+                wake_core=p.wake_core_ir if (self._ir and p.wake_core_ir is not None) else p.wake_core,
+                wake_front=0.0 if (self._ir and not p.wake_track_ir) else p.wake_front)
+            if p.wake_track_s > 0 and p.wake_frac > 0:
+                self._track_store(snap, cids, boxes)
             if p.grow_hint:
                 self._grown_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
                 self._grown_last_t = fi
