@@ -2493,8 +2493,8 @@ class ClusterParams:
 
     Session 26 (helper H24, boats back in view after the pan and zoom): ``coast_edge_horizon`` (False:
     off): the edge look of a coast whose expected box lies outside the image (left or right, waiting)
-    is made at rows re-estimated from the horizon instead of the camera's motion extrapolated far out
-    of the image: the box's bottom lies as many pixels below the horizon's row at the edge's column as
+    that sees nothing at the expected rows is tried again at rows re-estimated from the horizon (the
+    camera's motion extrapolated far out of the image carries the box off the boat's rows): the box's bottom lies as many pixels below the horizon's row at the edge's column as
     it lay below the horizon (at its centre's column) when the coast was last seen whole in the image
     (not at its side; or when the identity was lost), times the zoom now over the zoom then (a boat's range keeps its
     distance below the horizon through the zoom); its height the expected box's.  Not for the failed
@@ -2502,6 +2502,10 @@ class ClusterParams:
     heights): that look is not made where a report of this frame or another identity's coast reported
     now lies within this many of the expected box's heights of the re-estimated rows (above or below)
     and within the box's width plus that margin of the edge (the boat is then most likely that one).
+    ``coast_edge_horizon_contrast`` (0: ``min_contrast``): the contrast that look's grown box needs at
+    least (the sea's texture at the edge, 4.1-4.8 on ``pan`` 44 and 47, against 5.5 on ``pan`` 2's boat).
+    That look's grown box is also no sliver (under 0.35 of the expected box's height) nor a line
+    (``max_aspect``), as ``coast_edge_dy``'s (``pan`` 58: a 31 x 4 box from a 12 x 17 one).
 
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
@@ -2928,6 +2932,7 @@ class ClusterParams:
     coast_edge_dy: float = 0.0
     coast_edge_horizon: bool = False
     coast_edge_clear: float = 0.0
+    coast_edge_horizon_contrast: float = 0.0
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -4693,19 +4698,9 @@ class FeatureClusterer:
         left = b[:, 0] + 0.5 * b[:, 2] < 0.5 * ww
         w = np.minimum(b[:, 2], 0.5 * ww)
         e = np.stack([np.where(left, 0.0, ww - w), b[:, 1], w, b[:, 3]], axis=1)
-        look = np.ones(len(sel), bool)
-        if p.coast_edge_horizon and wait is not None:
-            # session 26 (H24): the rows of a box far outside re-estimated from the horizon
-            e, moved = self._horizon_rows(ids, sel, e, left, wait, ww, hh)
-            if p.coast_edge_clear > 0 and moved.any():
-                for j in np.flatnonzero(moved):
-                    others = [r for r in np.asarray(reported, np.float64).reshape(-1, 4)]
-                    others += [lbs[i] for i in np.flatnonzero(ok) if i != sel[j]]
-                    look[j] = self._edge_clear(e[j], bool(left[j]), ww, others)
         grown, contrast, found = np.zeros((len(sel), 4)), np.zeros(len(sel)), np.zeros(len(sel), bool)
         for j in range(len(sel)):
-            if look[j]:
-                grown[j], contrast[j], found[j] = self._edge_grow(img, e[j], bool(left[j]))
+            grown[j], contrast[j], found[j] = self._edge_grow(img, e[j], bool(left[j]))
         touch = np.where(left, grown[:, 0] <= 1.0, grown[:, 0] + grown[:, 2] >= ww - 1.0)
         ratio = (grown[:, 2] * grown[:, 3]) / np.maximum(b[:, 2] * b[:, 3], 1e-9)
         good = found & (contrast >= p.min_contrast) & touch & (ratio <= p.coast_edge)
@@ -4713,6 +4708,30 @@ class FeatureClusterer:
             good &= self._below_horizon(grown)
         if len(reported) and good.any():
             good &= ~_covers_a_report(grown, reported)
+        look = np.zeros(len(sel), bool)
+        if p.coast_edge_horizon and wait is not None and not good.all():
+            # session 26 (H24): not seen at the expected rows: a box far outside looked at again at rows
+            # re-estimated from the horizon (the camera's motion extrapolated far out carries it off them)
+            eh, moved = self._horizon_rows(ids, sel, e, left, wait, ww, hh)
+            look = moved & ~good & (np.abs(eh[:, 1] - e[:, 1]) >= 1.0)
+            floor = max(p.min_contrast, p.coast_edge_horizon_contrast)
+            for j in np.flatnonzero(look):
+                if p.coast_edge_clear > 0:
+                    others = list(np.asarray(reported, np.float64).reshape(-1, 4))
+                    others += [lbs[i] for i in np.flatnonzero(ok) if i != sel[j]]
+                    if not self._edge_clear(eh[j], bool(left[j]), ww, others):
+                        continue
+                g, ct, fd = self._edge_grow(img, eh[j], bool(left[j]))
+                tch = g[0] <= 1.0 if left[j] else g[0] + g[2] >= ww - 1.0
+                ok1 = (fd and ct >= floor and tch and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9)
+                       and g[3] >= 0.35 * b[j, 3]  # not a sliver of the sea's texture (as coast_edge_dy's)
+                       and not (p.max_aspect > 0 and g[2] > p.max_aspect * max(g[3], 1e-9)))  # nor a line
+                if ok1 and p.coast_search_below_px > 0 and self._horizon is not None:
+                    ok1 = bool(self._below_horizon(g[None])[0])
+                if ok1 and len(reported):
+                    ok1 = not bool(_covers_a_report(g[None], reported)[0])
+                if ok1:
+                    grown[j], contrast[j], found[j], good[j] = g, ct, True, True
         if p.coast_edge_dy > 0 and not good.all():
             # session 25 (H19): not seen at the expected rows: the zoom carried the expected box of a
             # boat far outside the image off its rows (pan 2: 30 px below the boat coming back in at the
