@@ -2504,8 +2504,6 @@ class ClusterParams:
     and within the box's width plus that margin of the edge (the boat is then most likely that one).
     ``coast_edge_horizon_contrast`` (0: ``min_contrast``): the contrast that look's grown box needs at
     least (the sea's texture at the edge, 4.1-4.8 on ``pan`` 44 and 47, against 5.5 on ``pan`` 2's boat).
-    That look's grown box is also no sliver (under 0.35 of the expected box's height) nor a line
-    (``max_aspect``), as ``coast_edge_dy``'s (``pan`` 58: a 31 x 4 box from a 12 x 17 one).
 
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
@@ -4723,9 +4721,7 @@ class FeatureClusterer:
                         continue
                 g, ct, fd = self._edge_grow(img, eh[j], bool(left[j]))
                 tch = g[0] <= 1.0 if left[j] else g[0] + g[2] >= ww - 1.0
-                ok1 = (fd and ct >= floor and tch and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9)
-                       and g[3] >= 0.35 * b[j, 3]  # not a sliver of the sea's texture (as coast_edge_dy's)
-                       and not (p.max_aspect > 0 and g[2] > p.max_aspect * max(g[3], 1e-9)))  # nor a line
+                ok1 = (fd and ct >= floor and tch and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9))
                 if ok1 and p.coast_search_below_px > 0 and self._horizon is not None:
                     ok1 = bool(self._below_horizon(g[None])[0])
                 if ok1 and len(reported):
