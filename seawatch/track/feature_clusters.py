@@ -2517,6 +2517,20 @@ class ClusterParams:
     carries the expected box of a boat far outside the image off its rows.  Neither on: the shift
     reports other boats and the sea's texture at the edge (faint four worse).
 
+    Session 26 (helper H24, boats back in view after the pan and zoom): ``coast_edge_horizon`` (False:
+    off): the edge look of a coast whose expected box lies outside the image (left or right, waiting)
+    that sees nothing at the expected rows is tried again at rows re-estimated from the horizon (the
+    camera's motion extrapolated far out of the image carries the box off the boat's rows): the box's bottom lies as many pixels below the horizon's row at the edge's column as
+    it lay below the horizon (at its centre's column) when the coast was last seen whole in the image
+    (not at its side; or when the identity was lost), times the zoom now over the zoom then (a boat's range keeps its
+    distance below the horizon through the zoom); its height the expected box's.  Not for the failed
+    looks at a box on the image's side (their rows are the image's).  ``coast_edge_clear`` (0: off; box
+    heights): that look is not made where a report of this frame or another identity's coast reported
+    now lies within this many of the expected box's heights of the re-estimated rows (above or below)
+    and within the box's width plus that margin of the edge (the boat is then most likely that one).
+    ``coast_edge_horizon_contrast`` (0: ``min_contrast``): the contrast that look's grown box needs at
+    least (the sea's texture at the edge, 4.1-4.8 on ``pan`` 44 and 47, against 5.5 on ``pan`` 2's boat).
+
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
     extended upward by this many times its height (the expected box was the hull alone, and the
@@ -2976,6 +2990,9 @@ class ClusterParams:
     coast_edge_s: float = 8.0
     coast_edge_seen: bool = False
     coast_edge_dy: float = 0.0
+    coast_edge_horizon: bool = False
+    coast_edge_clear: float = 0.0
+    coast_edge_horizon_contrast: float = 0.0
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -3103,6 +3120,8 @@ class FeatureClusterer:
         # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
         self._coast_fail: dict = {}
         self._coast_seen: dict = {}  # coast_edge_seen: identity -> (loss time, last time its coast was seen)
+        # coast_edge_horizon: identity -> (loss time, its box bottom's px below the horizon, zoom, height) when last seen
+        self._coast_rows: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
         self._joined_apart: set = set()  # merge_id_dv_px_s: those of them that move otherwise (not handed over)
         self._report_last: dict = {}  # merge_id_keep_iou: cluster identity -> its report's box (frame _report_last_t)
@@ -4707,8 +4726,10 @@ class FeatureClusterer:
                 edge &= t - tls <= p.coast_edge_s + 1e-9
                 wait &= edge
             if p.coast_check and image is not None and edge.any():
-                self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported)
+                self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported, wait)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
+        if p.coast_edge_horizon and self._horizon is not None and snap.shape is not None and len(ids):
+            self._record_rows(ids, lbs, ok, why, snap.shape)
         if p.coast_edge_seen:
             for j in np.flatnonzero(ok):  # seen now (the loss time keys it: a new loss starts afresh)
                 self._coast_seen[int(ids[j])] = (self._lost[int(ids[j])][0], t)
@@ -4747,7 +4768,66 @@ class FeatureClusterer:
             return empty
         return ids[ok], lbs[ok], vel[ok]
 
-    def _coast_edge_look(self, image, shape, ids, lbs, ok, why, edge, reported):
+    def _record_rows(self, ids, lbs, ok, why, shape):
+        """``params.coast_edge_horizon``: remember, for each coast seen now in the image (``ok``), or
+        not yet remembered for this loss and with its box's centre in the image, how far its box's
+        bottom lies below the horizon (px, at the box centre's column), the zoom and its height; not from
+        a box at the image's left or right side (an edge look's)."""
+        hh, ww = shape
+        cx = lbs[:, 0] + 0.5 * lbs[:, 2]
+        cy = lbs[:, 1] + 0.5 * lbs[:, 3]
+        inside = (cx >= 0) & (cx < ww) & (cy >= 0) & (cy < hh) & (why != "outside")
+        # not a box at the image's side (an edge look's box holds the part in view, its rows less sure)
+        inside &= (why != "edge") & (lbs[:, 0] >= 1.0) & (lbs[:, 0] + lbs[:, 2] <= ww - 1.0)
+        for j in np.flatnonzero(inside):
+            k = int(ids[j])
+            tl = self._lost[k][0]
+            if not ok[j] and self._coast_rows.get(k, (None,))[0] == tl:
+                continue
+            row = float(np.asarray(self._horizon.row_at(np.array([cx[j]])), np.float64)[0])
+            if np.isfinite(row):
+                self._coast_rows[k] = (tl, float(lbs[j, 1] + lbs[j, 3]) - row, self._zoom, float(lbs[j, 3]))
+        if len(self._coast_rows) > 2 * len(self._lost) + 16:
+            self._coast_rows = {k: v for k, v in self._coast_rows.items() if k in self._lost}
+
+    def _horizon_rows(self, ids, sel, e, left, wait, ww, hh):
+        """``params.coast_edge_horizon``: the edge boxes ``e`` (of the coasts ``ids[sel]``) of those
+        waiting outside moved to rows re-estimated from the horizon (see :class:`ClusterParams`).
+        Returns the moved boxes and which were moved."""
+        e = e.copy()
+        moved = np.zeros(len(sel), bool)
+        if self._horizon is None:
+            return e, moved
+        for j, i in enumerate(sel):
+            if not wait[i]:
+                continue
+            k = int(ids[i])
+            rec = self._coast_rows.get(k)
+            if rec is None or rec[0] != self._lost[k][0]:
+                continue
+            xe = 0.0 if left[j] else float(ww - 1)
+            row = float(np.asarray(self._horizon.row_at(np.array([xe])), np.float64)[0])
+            if not np.isfinite(row):
+                continue
+            bottom = row + rec[1] * self._zoom / max(rec[2], 1e-6)
+            y = min(max(bottom - e[j, 3], 0.0), hh - e[j, 3])
+            e[j, 1] = y
+            moved[j] = True
+        return e, moved
+
+    def _edge_clear(self, e, left, ww, others):
+        """``params.coast_edge_clear``: whether no box of ``others`` lies within ``coast_edge_clear``
+        times the box's height of the rows of the edge box ``e`` and within its width plus that margin
+        of the edge."""
+        if not len(others):
+            return True
+        m = self.params.coast_edge_clear * e[3]
+        o = np.asarray(others, np.float64).reshape(-1, 4)
+        rows = (o[:, 1] < e[1] + e[3] + m) & (o[:, 1] + o[:, 3] > e[1] - m)
+        near = o[:, 0] < e[2] + m if left else o[:, 0] + o[:, 2] > ww - e[2] - m
+        return not bool((rows & near).any())
+
+    def _coast_edge_look(self, image, shape, ids, lbs, ok, why, edge, reported, wait=None):
         """``params.coast_edge`` (session 24, helper H7): each coast in ``edge`` (its expected box's
         centre lies left or right of the image, its rows in it: a boat the pan or the zoom carried
         across the image's side) is looked at on the image's edge on its side: grown
@@ -4778,6 +4858,28 @@ class FeatureClusterer:
             good &= self._below_horizon(grown)
         if len(reported) and good.any():
             good &= ~_covers_a_report(grown, reported)
+        look = np.zeros(len(sel), bool)
+        if p.coast_edge_horizon and wait is not None and not good.all():
+            # session 26 (H24): not seen at the expected rows: a box far outside looked at again at rows
+            # re-estimated from the horizon (the camera's motion extrapolated far out carries it off them)
+            eh, moved = self._horizon_rows(ids, sel, e, left, wait, ww, hh)
+            look = moved & ~good & (np.abs(eh[:, 1] - e[:, 1]) >= 1.0)
+            floor = max(p.min_contrast, p.coast_edge_horizon_contrast)
+            for j in np.flatnonzero(look):
+                if p.coast_edge_clear > 0:
+                    others = list(np.asarray(reported, np.float64).reshape(-1, 4))
+                    others += [lbs[i] for i in np.flatnonzero(ok) if i != sel[j]]
+                    if not self._edge_clear(eh[j], bool(left[j]), ww, others):
+                        continue
+                g, ct, fd = self._edge_grow(img, eh[j], bool(left[j]))
+                tch = g[0] <= 1.0 if left[j] else g[0] + g[2] >= ww - 1.0
+                ok1 = (fd and ct >= floor and tch and g[2] * g[3] <= p.coast_edge * max(b[j, 2] * b[j, 3], 1e-9))
+                if ok1 and p.coast_search_below_px > 0 and self._horizon is not None:
+                    ok1 = bool(self._below_horizon(g[None])[0])
+                if ok1 and len(reported):
+                    ok1 = not bool(_covers_a_report(g[None], reported)[0])
+                if ok1:
+                    grown[j], contrast[j], found[j], good[j] = g, ct, True, True
         if p.coast_edge_dy > 0 and not good.all():
             # session 25 (H19): not seen at the expected rows: the zoom carried the expected box of a
             # boat far outside the image off its rows (pan 2: 30 px below the boat coming back in at the
