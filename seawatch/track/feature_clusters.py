@@ -2531,6 +2531,21 @@ class ClusterParams:
     ``coast_edge_horizon_contrast`` (0: ``min_contrast``): the contrast that look's grown box needs at
     least (the sea's texture at the edge, 4.1-4.8 on ``pan`` 44 and 47, against 5.5 on ``pan`` 2's boat).
 
+    Session 26 round 2 (helper H27): ``coast_edge_horizon_out`` (0: off; the expected box's widths): the
+    horizon look only for a coast whose expected box lies more than this many of its widths outside the
+    image (the gap between the box's near side and the image's side): the extrapolated rows go wrong far
+    out (``pan`` 2: 229 px out), while a box just outside keeps rows about right, and there the moved look
+    finds other things (``pan`` 58: a coast on no boat just outside the right edge moved to another box).
+    Not enough on ``pan`` 58 (the same coast goes 3 widths out and takes a box there).
+    ``coast_edge_horizon_h`` (0: off; a factor > 1): the horizon look only for a coast whose expected box's
+    height lies within this factor (either way) of the height recorded with its rows times the zoom now over
+    the zoom then: the rows are the recorded boat's, and a coast whose box has shrunk or grown away from
+    that boat's size since (its follow-on looks took fragments or the sea's texture) is most likely no
+    longer that boat.  The ratios of the looks that reported (``pan`` 2, 58, 55, 44, 47): ``pan`` 2's boat
+    1.08 and ``pan`` 55's 1.20, against ``pan`` 58's identity 126 on no boat 0.56 and 0.15, ``pan`` 44's
+    0.45 and ``pan`` 47's sea texture 0.54.  With 1.5 no contrast floor (``coast_edge_horizon_contrast``)
+    is needed.
+
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
     extended upward by this many times its height (the expected box was the hull alone, and the
@@ -2993,6 +3008,8 @@ class ClusterParams:
     coast_edge_horizon: bool = False
     coast_edge_clear: float = 0.0
     coast_edge_horizon_contrast: float = 0.0
+    coast_edge_horizon_out: float = 0.0
+    coast_edge_horizon_h: float = 0.0
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -4809,6 +4826,10 @@ class FeatureClusterer:
             row = float(np.asarray(self._horizon.row_at(np.array([xe])), np.float64)[0])
             if not np.isfinite(row):
                 continue
+            if self.params.coast_edge_horizon_h > 0:  # session 26 round 2 (H27): still the recorded boat's size
+                hr = e[j, 3] / max(rec[3] * self._zoom / max(rec[2], 1e-6), 1e-6)
+                if not 1.0 / self.params.coast_edge_horizon_h <= hr <= self.params.coast_edge_horizon_h:
+                    continue
             bottom = row + rec[1] * self._zoom / max(rec[2], 1e-6)
             y = min(max(bottom - e[j, 3], 0.0), hh - e[j, 3])
             e[j, 1] = y
@@ -4864,6 +4885,9 @@ class FeatureClusterer:
             # re-estimated from the horizon (the camera's motion extrapolated far out carries it off them)
             eh, moved = self._horizon_rows(ids, sel, e, left, wait, ww, hh)
             look = moved & ~good & (np.abs(eh[:, 1] - e[:, 1]) >= 1.0)
+            if p.coast_edge_horizon_out > 0:  # session 26 round 2 (H27): only for a box far outside
+                gap = np.where(left, -(b[:, 0] + b[:, 2]), b[:, 0] - ww)
+                look &= gap > p.coast_edge_horizon_out * np.maximum(b[:, 2], 1e-9)
             floor = max(p.min_contrast, p.coast_edge_horizon_contrast)
             for j in np.flatnonzero(look):
                 if p.coast_edge_clear > 0:
