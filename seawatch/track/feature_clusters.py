@@ -2751,6 +2751,13 @@ class ClusterParams:
     ``wake_track_ir`` (True): these also on infrared frames.  ``wake_core_ir`` (None: as
     ``wake_core``; 0: off on infrared frames): ``wake_core`` on infrared frames (H20's ``wake_core`` cost
     ``ir`` 2 two switches).
+    Session 26 round 2 (helper H26): ``wake_core_iou`` (IoU, 0: off): a guard on ``wake_core``'s cut.  Where
+    a cluster with a trailing side gets a grown box whose IoU with its grown box of the frame before
+    (carried by the camera's motion) is under this, its box is grown again without ``wake_core`` (the
+    reference fraction ``wake_frac``, of ``wake_front``'s columns where that is on) and that box is kept if
+    it overlaps the box before more.  On ``pan`` 47 (H23's C1) ``wake_core`` took a tug's low hull for the
+    wake of a taller object ahead of it in the same cluster and cut the box to that object (the tug's
+    identity swapped twice); the guard undoes the first such cut.
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
