@@ -33,9 +33,9 @@ def _grow(img, **kw):
     return grow_boxes(img, PRE, CORE, trail=TRAIL, return_contrast=True, return_found=True, **P, **kw)
 
 
-def _clusterer(iou, last_box):
+def _clusterer(iou, last_box, cut=0.0):
     fc = FeatureClusterer(ClusterParams(wake_frac=0.3, wake_front=0.3, wake_core=0.5, wake_core_iou=iou,
-                                        grow_box=1.0))
+                                        wake_core_iou_cut=cut, grow_box=1.0))
     fc._cluster_boxes_now = 4  # the frame before this one (5)
     fc._wcore_last = {7: np.asarray(last_box, float)}
     fc._wcore_last_t = 4
@@ -88,3 +88,13 @@ def test_guard_carries_the_box_before():
 
 def test_off_by_default():
     assert ClusterParams().wake_core_iou == 0
+
+
+def test_cut_fraction_keeps_a_cut_that_takes_little_of_the_box_before():
+    img = _tug_scene()
+    b1, _, f1 = _grow(img, wake_core=0.5)
+    for frac, undone in ((0.4, True), (0.9, False)):
+        fc = _clusterer(0.6, [100.0, 40.0, 33.0, 28.0], frac)  # the cut took 19 of its 33 columns (0.58)
+        out, _ = _guard(fc, img, b1.copy(), f1.copy())
+        assert (out[0][0] + out[0][2] >= 132) == undone
+    assert ClusterParams().wake_core_iou_cut == 0

@@ -2758,6 +2758,10 @@ class ClusterParams:
     it overlaps the box before more.  On ``pan`` 47 (H23's C1) ``wake_core`` took a tug's low hull for the
     wake of a taller object ahead of it in the same cluster and cut the box to that object (the tug's
     identity swapped twice); the guard undoes the first such cut.
+    ``wake_core_iou_cut`` (fraction of the box before's width, 0: off): the guard's box is taken only where
+    the columns the cut took away (the regrown box's beyond the cut one) within the box before's columns
+    are at least this fraction of its width: a cut that only drops what the box before did not hold (a
+    rib's foam beside its hull) stays.
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
@@ -2909,6 +2913,7 @@ class ClusterParams:
     wake_hold_s: float = 0.0
     wake_front: float = 0.0
     wake_core_iou: float = 0.0
+    wake_core_iou_cut: float = 0.0
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
@@ -3187,8 +3192,16 @@ class FeatureClusterer:
                 wake_core=0.0, wake_front=0.0 if (self._ir and not p.wake_track_ir) else p.wake_front)
             boxes, found = boxes.copy(), found.copy()
             for j, (i, hb) in enumerate(cand):
-                if f2[j] and _box_iou(redo[j], hb) > _box_iou(boxes[i], hb):
-                    boxes[i] = redo[j]
+                if not (f2[j] and _box_iou(redo[j], hb) > _box_iou(boxes[i], hb)):
+                    continue
+                if p.wake_core_iou_cut > 0:
+                    # the columns the cut took away (the regrown box's beyond the cut one) within the box before
+                    a0, a1 = max(redo[j][0], hb[0]), min(redo[j][0] + redo[j][2], hb[0] + hb[2])
+                    k0, k1 = max(boxes[i][0], a0), min(boxes[i][0] + boxes[i][2], a1)
+                    gone = max(a1 - a0, 0.0) - max(k1 - k0, 0.0)
+                    if gone < p.wake_core_iou_cut * max(hb[2], 1.0):
+                        continue
+                boxes[i] = redo[j]
         self._wcore_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
         self._wcore_last_t = fi
         return boxes, found
