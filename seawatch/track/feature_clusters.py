@@ -2766,6 +2766,17 @@ class ClusterParams:
     ``wake_track_ir`` (True): these also on infrared frames.  ``wake_core_ir`` (None: as
     ``wake_core``; 0: off on infrared frames): ``wake_core`` on infrared frames (H20's ``wake_core`` cost
     ``ir`` 2 two switches).
+    Session 26 round 2 (helper H26): ``wake_core_iou`` (IoU, 0: off): a guard on ``wake_core``'s cut.  Where
+    a cluster with a trailing side gets a grown box whose IoU with its grown box of the frame before
+    (carried by the camera's motion) is under this, its box is grown again without ``wake_core`` (the
+    reference fraction ``wake_frac``, of ``wake_front``'s columns where that is on) and that box is kept if
+    it overlaps the box before more.  On ``pan`` 47 (H23's C1) ``wake_core`` took a tug's low hull for the
+    wake of a taller object ahead of it in the same cluster and cut the box to that object (the tug's
+    identity swapped twice); the guard undoes the first such cut.
+    ``wake_core_iou_cut`` (fraction of the box before's width, 0: off): the guard's box is taken only where
+    the columns the cut took away (the regrown box's beyond the cut one) within the box before's columns
+    are at least this fraction of its width: a cut that only drops what the box before did not hold (a
+    rib's foam beside its hull) stays.
     Session 25 (helper H14, the rib's box): ``grow_jump`` (0: off): a cluster's grown box may be at
     most this many times as wide (and as tall) as its grown box in the frame before (carried by the
     camera's motion; both grown, ``found``); beyond it the side that reaches farther out of the box
@@ -2916,6 +2927,8 @@ class ClusterParams:
     wake_track_ir: bool = True
     wake_hold_s: float = 0.0
     wake_front: float = 0.0
+    wake_core_iou: float = 0.0
+    wake_core_iou_cut: float = 0.0
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
     box_disp_min_px: float = 2.0
@@ -3080,6 +3093,8 @@ class FeatureClusterer:
         self._trk_hist: dict = {}  # cluster identity -> [(time, box centre x)] in this frame's image (wake_track_s)
         self._trk_hist_t = -1  # frame index of _trk_hist
         self._trail_last: dict = {}  # cluster identity -> (time, side) of its last trailing side set by its members (wake_hold_s)
+        self._wcore_last: dict = {}  # cluster identity -> its grown box last frame (wake_core_iou)
+        self._wcore_last_t = -1  # frame index of _wcore_last
         self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
         self._disp_ring: collections.deque = collections.deque()  # (time, slots, ids, scene positions) per frame
         self._disp_c = np.eye(3)  # this frame's image -> the scene reference (box_disp_s)
@@ -3158,6 +3173,55 @@ class FeatureClusterer:
         self._cam_still = True
         self._relink_reset()
         self._size_reset()
+
+    def _wake_core_guard(self, snap, fi, cids, img, pre, cores, boxes, found, trail, sign_side, hints,
+                         cores_retry):
+        """Session 26 (H26, ``ClusterParams.wake_core_iou``): each cluster with a trailing side whose box
+        grown with ``wake_core`` overlaps its grown box of the frame before (carried by the camera's
+        motion) with IoU under ``wake_core_iou`` is grown again without ``wake_core`` (the reference
+        of all the object's columns, or ``wake_front``'s); that box is kept where its IoU with the box
+        before is higher.  Returns ``(boxes, found)``; stores this frame's grown boxes."""
+        p = self.params
+        last = self._wcore_last if self._wcore_last_t == self._cluster_boxes_now else {}
+        cand = []
+        if last:
+            hmg = np.asarray(snap.homography, np.float64)
+            fin = bool(np.all(np.isfinite(hmg)))
+            for i, c in enumerate(cids):
+                hb = last.get(int(c))
+                if hb is None or trail[i] == 0 or not found[i]:
+                    continue
+                hb = _carry_box(hb, hmg) if fin else hb
+                if _box_iou(boxes[i], hb) < p.wake_core_iou:
+                    cand.append((i, hb))
+        if cand:
+            idx = np.array([i for i, _ in cand])
+            redo, _, f2 = grow_boxes(
+                img, pre[idx], cores[idx], grow=p.grow_box, peak_frac=p.grow_peak_frac, return_contrast=True,
+                wide_grow_px=p.grow_wide_px, waterline_frac=p.waterline_frac, wake_frac=p.wake_frac,
+                trail=trail[idx], top_frac=self._top_frac, cut_core_frac=p.cut_core_frac,
+                cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick, sign_frac=p.grow_sign,
+                sign_max_px=p.grow_sign_max_px, sign_side=None if sign_side is None else sign_side[idx],
+                return_found=True, cover_wide=p.grow_cover_wide, hints=None if hints is None else hints[idx],
+                hint_pad_px=p.grow_hint_pad_px, hint_core=p.grow_hint_core, hint_core_x=p.grow_hint_core_x,
+                top_halo=p.top_halo_ir if self._ir else 0.0,
+                cores_retry=None if cores_retry is None else cores_retry[idx], top_min_px=p.top_min_px,
+                wake_core=0.0, wake_front=0.0 if (self._ir and not p.wake_track_ir) else p.wake_front)
+            boxes, found = boxes.copy(), found.copy()
+            for j, (i, hb) in enumerate(cand):
+                if not (f2[j] and _box_iou(redo[j], hb) > _box_iou(boxes[i], hb)):
+                    continue
+                if p.wake_core_iou_cut > 0:
+                    # the columns the cut took away (the regrown box's beyond the cut one) within the box before
+                    a0, a1 = max(redo[j][0], hb[0]), min(redo[j][0] + redo[j][2], hb[0] + hb[2])
+                    k0, k1 = max(boxes[i][0], a0), min(boxes[i][0] + boxes[i][2], a1)
+                    gone = max(a1 - a0, 0.0) - max(k1 - k0, 0.0)
+                    if gone < p.wake_core_iou_cut * max(hb[2], 1.0):
+                        continue
+                boxes[i] = redo[j]
+        self._wcore_last = {int(c): boxes[i].copy() for i, c in enumerate(cids) if found[i]}
+        self._wcore_last_t = fi
+        return boxes, found
 
     def _track_vx(self, snap: FeatureSnapshot, cids: np.ndarray) -> np.ndarray:
         """Each cluster's box centre velocity along x (px/s) over the last ``params.wake_track_s``
@@ -4417,8 +4481,10 @@ class FeatureClusterer:
                     hb = self._grown_last.get(int(c))
                     if hb is not None:
                         hints[i] = _carry_box(hb, hmg) if np.all(np.isfinite(hmg)) else hb
+            cores_now = np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1)
+            wcore = p.wake_core_ir if (self._ir and p.wake_core_ir is not None) else p.wake_core
             boxes, self.last_contrast, found = grow_boxes(
-                img, boxes, np.stack([cx0, cy0, cx1 - cx0, cy1 - cy0], axis=1), grow=p.grow_box,
+                img, boxes, cores_now, grow=p.grow_box,
                 peak_frac=p.grow_peak_frac, return_contrast=True, wide_grow_px=p.grow_wide_px,
                 waterline_frac=p.waterline_frac, wake_frac=p.wake_frac, trail=trail, top_frac=self._top_frac,
                 cut_core_frac=p.cut_core_frac, cut_core_undo=p.cut_core_undo, wake_thick=p.wake_thick,
@@ -4428,6 +4494,11 @@ class FeatureClusterer:
                 top_halo=p.top_halo_ir if self._ir else 0.0, cores_retry=cores_retry, top_min_px=p.top_min_px,
                 wake_core=p.wake_core_ir if (self._ir and p.wake_core_ir is not None) else p.wake_core,
                 wake_front=0.0 if (self._ir and not p.wake_track_ir) else p.wake_front)
+            if p.wake_core_iou > 0 and wcore > 0 and p.wake_frac > 0 and trail is not None:
+                # session 26 (H26): a wake_core cut that moves the box off the cluster's box of the frame
+                # before (carried by the camera) is undone: the box grown again with the all-columns reference
+                boxes, found = self._wake_core_guard(snap, fi, cids, img, pre_grow, cores_now, boxes, found, trail,
+                                                     sign_side, hints, cores_retry)
             if p.wake_track_s > 0 and p.wake_frac > 0:
                 self._track_store(snap, cids, boxes)
             if p.grow_hint:
