@@ -240,6 +240,8 @@ def _far_cut(xy: np.ndarray, ei: np.ndarray, ej: np.ndarray, horizon, zoom: floa
     row = np.asarray(horizon.row_at(xy[top, 0].astype(np.float64)), np.float64)
     with np.errstate(invalid="ignore"):
         cut = (y[top] < row + p.far_cut_px) & (dy > p.far_cut_gap_px * zoom)
+        if p.far_cut_deep_px > 0:  # session 26 round 2 (H25): a deeper band with a longer gap
+            cut |= (y[top] < row + p.far_cut_deep_px) & (dy > p.far_cut_deep_gap_px * zoom)
     return ~cut
 
 
@@ -2822,7 +2824,14 @@ class ClusterParams:
     identity whose last box (carried into this frame) was in the far strip is not relinked to, nor
     handed over to, a cluster whose box is not, and the other way round (:meth:`_far_side`).
     Without a horizon nothing changes.  ``far_id_ir`` (False: off): also on infrared frames (by
-    default visible frames only, as ``far_cut_ir``)."""
+    default visible frames only, as ``far_cut_ir``).  ``far_cut_deep_px`` (0: off; px, source pixels
+    under the horizon, not scaled, as ``far_cut_px``) with ``far_cut_deep_gap_px`` (20; px, times the
+    zoom): a second, deeper band of :func:`_far_cut` with a longer gap: an edge whose upper end lies
+    less than ``far_cut_deep_px`` under the horizon and whose lower end lies more than
+    ``far_cut_deep_gap_px`` below it is dropped too (on frames where ``far_cut_px``'s cut acts:
+    visible ones unless ``far_cut_ir``).  A boat 12-25 px under the horizon (sim ``pan`` 20's tug)
+    otherwise joins a boat 35-50 px below it in one cluster, its identity passing between them; a
+    tall ship near the horizon keeps its features (less than the gap apart) together."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3024,6 +3033,8 @@ class ClusterParams:
     far_cut_ir: bool = False
     far_id_px: float = 0.0
     far_id_ir: bool = False
+    far_cut_deep_px: float = 0.0
+    far_cut_deep_gap_px: float = 20.0
 
 
 class FeatureClusterer:
@@ -4261,7 +4272,8 @@ class FeatureClusterer:
             floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 floor, still, p.still_radius_px)
-        if p.far_cut_px > 0 and horizon is not None and len(ei) and (p.far_cut_ir or not ir):
+        if ((p.far_cut_px > 0 or p.far_cut_deep_px > 0) and horizon is not None and len(ei)
+                and (p.far_cut_ir or not ir)):
             keep = _far_cut(snap.xy[st], ei, ej, horizon, max(float(zoom), 1e-3), p)
             ei, ej = ei[keep], ej[keep]
         # indices into the snapshot
