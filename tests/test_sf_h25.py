@@ -1,13 +1,15 @@
 """The far strip's identities (issue #8, session 26 round 2, helper H25): with
 ``ClusterParams.far_id_px`` (0: off) an identity does not pass between the far strip (a box whose
 bottom lies less than ``far_id_px`` under the horizon, or above it) and the water below it, neither
-by the relink nor by the hand-over; ``far_id_ir`` (False) extends it to infrared frames."""
+by the relink nor by the hand-over; ``far_id_ir`` (False) extends it to infrared frames.
+``far_cut_deep_px`` (0: off) with ``far_cut_deep_gap_px``: a deeper band of H22's far cut with a longer
+gap (a boat 12-25 px under the horizon is not joined to a boat 35-50 px below it)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _far_cut
 
 ROW = 100.0  # the horizon's row
 
@@ -82,3 +84,30 @@ def test_ir_only_with_far_id_ir():
     fc = _clusterer(ir=True, far_id_px=12.0, far_id_ir=True)
     r, _ = _hand(fc, big_far, BELOW2)
     assert r is None
+
+
+def _edges():
+    """Features (x, y): a boat 14-24 px under the horizon (0, 1), a boat 40 px under it (2, 3), a tall far
+    ship 2-18 px under it (4, 5); edges 0-1, 0-2, 1-3, 4-5."""
+    xy = np.array([[100, ROW + 14], [104, ROW + 24], [102, ROW + 55], [108, ROW + 60],
+                   [200, ROW + 2], [204, ROW + 18]], float)
+    return xy, np.array([0, 0, 1, 4]), np.array([1, 2, 3, 5])
+
+
+def test_far_cut_deep():
+    xy, ei, ej = _edges()
+    # off by default: H22's cut alone (12 px, gap 6) drops only the tall far ship's edge 4-5
+    assert ClusterParams().far_cut_deep_px == 0
+    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, ClusterParams(far_cut_px=12.0))
+    assert keep.tolist() == [True, True, True, False]
+    # the deeper band (30 px, gap 20) drops the edges from the near-far boat to the boat below
+    p = ClusterParams(far_cut_px=12.0, far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
+    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, p)
+    assert keep.tolist() == [True, False, False, False]
+    # the gap is scaled by the zoom: at zoom 2 (gap 40 px) the 41 px edge 0-2 is dropped, the 36 px one 1-3 kept
+    keep = _far_cut(xy, ei, ej, _Level(ROW), 2.0, p)
+    assert keep.tolist() == [True, False, True, False]  # (4-5: H22's gap 12 px at zoom 2)
+    # the deep band alone (far_cut_px off): the tall far ship keeps its 16 px edge
+    p = ClusterParams(far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
+    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, p)
+    assert keep.tolist() == [True, False, False, True]
