@@ -240,6 +240,8 @@ def _far_cut(xy: np.ndarray, ei: np.ndarray, ej: np.ndarray, horizon, zoom: floa
     row = np.asarray(horizon.row_at(xy[top, 0].astype(np.float64)), np.float64)
     with np.errstate(invalid="ignore"):
         cut = (y[top] < row + p.far_cut_px) & (dy > p.far_cut_gap_px * zoom)
+        if p.far_cut_deep_px > 0:  # session 26 round 2 (H25): a deeper band with a longer gap
+            cut |= (y[top] < row + p.far_cut_deep_px) & (dy > p.far_cut_deep_gap_px * zoom)
     return ~cut
 
 
@@ -2839,7 +2841,23 @@ class ClusterParams:
     ship and a boat below it; a boat straddling the strip's line stays joined through its shorter
     edges.  Without a horizon nothing is dropped.  ``far_cut_ir`` (False: off): the cut on infrared
     frames too (by default visible frames only, as the extractor's ``far_skip_ir``; on the tuning
-    ``ir`` sequences the cut alone added switches)."""
+    ``ir`` sequences the cut alone added switches).
+
+    Session 26 round 2 (helper H25, the far strip's identities): ``far_id_px`` (0: off; px, source
+    pixels under the horizon, not scaled by the zoom, as ``far_cut_px``): an identity does not pass
+    between the far strip and the water below it.  A box is in the far strip when its bottom lies
+    less than ``far_id_px`` under the horizon's row at its centre's column (or above it); a lost
+    identity whose last box (carried into this frame) was in the far strip is not relinked to, nor
+    handed over to, a cluster whose box is not, and the other way round (:meth:`_far_side`).
+    Without a horizon nothing changes.  ``far_id_ir`` (False: off): also on infrared frames (by
+    default visible frames only, as ``far_cut_ir``).  ``far_cut_deep_px`` (0: off; px, source pixels
+    under the horizon, not scaled, as ``far_cut_px``) with ``far_cut_deep_gap_px`` (20; px, times the
+    zoom): a second, deeper band of :func:`_far_cut` with a longer gap: an edge whose upper end lies
+    less than ``far_cut_deep_px`` under the horizon and whose lower end lies more than
+    ``far_cut_deep_gap_px`` below it is dropped too (on frames where ``far_cut_px``'s cut acts:
+    visible ones unless ``far_cut_ir``).  A boat 12-25 px under the horizon (sim ``pan`` 20's tug)
+    otherwise joins a boat 35-50 px below it in one cluster, its identity passing between them; a
+    tall ship near the horizon keeps its features (less than the gap apart) together."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3043,6 +3061,10 @@ class ClusterParams:
     far_cut_px: float = 0.0
     far_cut_gap_px: float = 6.0
     far_cut_ir: bool = False
+    far_id_px: float = 0.0
+    far_id_ir: bool = False
+    far_cut_deep_px: float = 0.0
+    far_cut_deep_gap_px: float = 20.0
 
 
 class FeatureClusterer:
@@ -3777,6 +3799,7 @@ class FeatureClusterer:
         # relink_view_px: the image's size (width, height), None when off or unknown
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
+        far_new = self._far_side(boxes) if new else None  # far_id_px: each cluster in the far strip
         for i in new:
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -3834,6 +3857,8 @@ class FeatureClusterer:
                         and (boxes[i][2] * boxes[i][3] < p.relink_area_zoom_min * lb[2] * lb[3]
                              or boxes[i][3] < p.relink_height_zoom_min * lb[3])):
                     continue  # session 22 (H6): the same, looser, through a zoom change
+                if d <= gate and far_new is not None and bool(far_new[i]) != bool(self._far_side(lb[None])[0]):
+                    continue  # session 26 round 2 (H25, far_id_px): not across the far strip's line
                 if d <= gate:
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
@@ -4146,6 +4171,25 @@ class FeatureClusterer:
         self.relink_log.append((t, int(k), int(cids[i]), boxes[i].copy(), dc, dt, refused))
         return not refused
 
+    def _far_side(self, boxes) -> np.ndarray | None:
+        """``params.far_id_px``: whether each box (rows x, y, w, h) lies in the far strip (its bottom
+        less than ``far_id_px`` under the horizon's row at its centre's column, or above it); None
+        when off, without a horizon, or on an infrared frame without ``far_id_ir``."""
+        p = self.params
+        if p.far_id_px <= 0 or self._horizon is None or (self._ir and not p.far_id_ir):
+            return None
+        b = np.asarray(boxes, np.float64).reshape(-1, 4)
+        if not len(b):
+            return np.zeros(0, bool)
+        row = np.asarray(self._horizon.row_at(b[:, 0] + 0.5 * b[:, 2]), np.float64).reshape(-1)
+        with np.errstate(invalid="ignore"):
+            return b[:, 1] + b[:, 3] < row + p.far_id_px
+
+    def _far_apart(self, a, b) -> bool:
+        """``params.far_id_px``: box ``a`` and box ``b`` lie on two sides of the far strip's line."""
+        f = self._far_side(np.array([a, b], np.float64))
+        return f is not None and bool(f[0]) != bool(f[1])
+
     def _hand_over(self, k, cids, boxes, rep, now, own) -> int | None:
         """Identity ``k`` was just lost: the hand-over (see :meth:`_hand_over_to`)."""
         return self._hand_over_to(k, cids, boxes, rep, now, own)
@@ -4194,6 +4238,8 @@ class FeatureClusterer:
             if o >= best_o and self.params.hand_over_height_ratio > 0 and (
                     b[3] > self.params.hand_over_height_ratio * lb[3]):
                 continue  # the same by the heights
+            if o >= best_o and self.params.far_id_px > 0 and self._far_apart(b, lb):
+                continue  # session 26 round 2 (H25): not across the far strip's line
             if o >= best_o:
                 best, best_o = i, o
         if best < 0:
@@ -4307,7 +4353,8 @@ class FeatureClusterer:
             floor = np.where(near, floor, full)
         ei, ej, _ = frame_edges(snap.xy[st], snap.history[st], p.dmax, p.radius_px, p.p_px, p.frame_interval_s,
                                 floor, still, p.still_radius_px)
-        if p.far_cut_px > 0 and horizon is not None and len(ei) and (p.far_cut_ir or not ir):
+        if ((p.far_cut_px > 0 or p.far_cut_deep_px > 0) and horizon is not None and len(ei)
+                and (p.far_cut_ir or not ir)):
             keep = _far_cut(snap.xy[st], ei, ej, horizon, max(float(zoom), 1e-3), p)
             ei, ej = ei[keep], ej[keep]
         # indices into the snapshot
