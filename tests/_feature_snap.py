@@ -7,6 +7,16 @@ import numpy as np
 from seawatch.detect.features import FeatureSnapshot
 
 
+class Level:
+    """A level sea horizon at row ``r`` (the ``row_at`` the clusterer and the extractor ask)."""
+
+    def __init__(self, r):
+        self.r = float(r)
+
+    def row_at(self, x):
+        return np.full(np.shape(x), self.r)
+
+
 def snap(xy, vel, t, fi, ids=None, h=None, slots=None, shape=(160, 240)):
     """Stable features at ``xy`` moving at ``vel`` (a 4-sample history of it), at time ``t`` and
     frame ``fi``; ``ids`` default 10, 11, ...; ``slots`` default the ids when given (each feature's
@@ -45,6 +55,10 @@ def shift(dx):
     return h
 
 
+# the coast tests' base: no confirmation, relink 10 s, coast 5 s, session 24's second looks off
+COAST_BASE = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
+
+
 def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240), hull=(100, 60, 140, 70), **kw):
     """A dark hull (``hull``: x0, y0, x1, y1, exclusive, on a grey sea of ``shape``) seen with two
     features for 6 frames (0.1 s apart); then its features are gone and the camera moves the content
@@ -55,9 +69,7 @@ def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240)
     off).  Returns the clusterer, the hull's identity and the tracks of each frame after the loss."""
     from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
-    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, **kw}))
     tr = None
     for k in range(6):
         _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]),

@@ -7,18 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from _feature_snap import Level
+
 from seawatch.detect.features import FeatureSnapshot
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _far_still
 
 ROW = 100.0  # the horizon's row
 
 
-class _Level:
-    def __init__(self, r):
-        self.r = float(r)
-
-    def row_at(self, x):
-        return np.full(np.shape(x), self.r)
 
 
 def _snap(k, ship, coast=(), seed=0):
@@ -51,7 +47,7 @@ def _params(**kw):
 
 def _reports(params, ship, coast=(), zoom=1.0, frames=8):
     c = FeatureClusterer(params)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     out = []
     for k in range(frames):
         dets, _ = c.update(_snap(k, ship, coast), horizon=hz, zoom=zoom)
@@ -149,7 +145,7 @@ def test_far_open_mask():
     from seawatch.track.feature_clusters import _far_open
 
     p = _params(far_top_px=3.0, far_open_px=30.0)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     x = np.array([150.0, 160.0, 260.0, 20.0, 100.0, 215.0])
     # on the coast (coast_x1 200): 150/160 have coast on their left (120/130) and right (180/190);
     # 260 (open on both sides), 215 (right side 245 open, left 185 coast): open; 20 (left outside, right coast), 100: coast
@@ -162,7 +158,7 @@ def test_far_open_mask():
 
 def _reports_img(params, ship, coast_x1, frames=8):
     c = FeatureClusterer(params)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     out = []
     img = _image(coast_x1)
     for k in range(frames):
@@ -192,7 +188,7 @@ def test_far_open_low_contrast_falls_back_to_the_feature_check():
     img[96:106] = 150.0
     img += rng.normal(0, 1.0, img.shape)
     img = np.clip(img, 0, 255).astype(np.uint8)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     x = np.array([150.0, 260.0, 10.0])
     p = _params(far_top_px=3.0, far_open_px=30.0)
     assert not _far_open(img, x, hz, 1.0, p).any()  # the band is not sky: never open

@@ -8,18 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from seawatch.detect.features import FeatureSnapshot
+from _feature_snap import Level
+from test_sf_far import stable_snap
+
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _far_cut
 
 ROW = 100.0  # the horizon's row
 
 
-class _Level:
-    def __init__(self, r):
-        self.r = float(r)
-
-    def row_at(self, x):
-        return np.full(np.shape(x), self.r)
 
 
 def _snap(k, pts, v=(12.0, 0.0), seed=0):
@@ -29,12 +25,7 @@ def _snap(k, pts, v=(12.0, 0.0), seed=0):
     xy = np.array([(x + v[0] * 0.04 * k, ROW + dy) for x, dy in pts], float)
     n = len(xy)
     hist = np.asarray(v, float) + rng.normal(0, 0.3, (n, 4, 2))
-    return FeatureSnapshot(
-        t_s=0.04 * k, frame_index=k, ids=np.arange(n) + 10, slots=np.arange(n), xy=xy,
-        size_px=np.full(n, 4.0), confidence=np.full(n, 6), stable=np.ones(n, bool),
-        matched=np.ones(n, bool), velocity=hist[:, -1], history=hist, image_velocity=hist[:, -1],
-        homography=np.eye(3), dt_s=0.04, n_keypoints=n, n_matched=n, shape=(240, 320),
-    )
+    return stable_snap(k, xy, hist)
 
 
 def _params(**kw):
@@ -44,7 +35,7 @@ def _params(**kw):
 
 def _boxes(params, pts, zoom=1.0, frames=10):
     c = FeatureClusterer(params)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     for k in range(frames):
         dets, _ = c.update(_snap(k, pts), horizon=hz, zoom=zoom)
     return dets.boxes.copy()
@@ -89,11 +80,11 @@ def test_far_cut_edges_and_zoom():
     p = _params(far_cut_px=12.0, far_cut_gap_px=6.0)
     # 0-1: strip to 18 px below: cut; 0-2: 4 px: kept; 1-2: upper end 2 at 6 px, 14 below: cut;
     # 3-4: both below the strip: kept
-    assert _far_cut(xy, ei, ej, _Level(ROW), 1.0, p).tolist() == [False, True, False, True]
+    assert _far_cut(xy, ei, ej, Level(ROW), 1.0, p).tolist() == [False, True, False, True]
     # at zoom 3 the gap is 18 px: 0-1 (18 px) and 1-2 (14 px) kept
-    assert _far_cut(xy, ei, ej, _Level(ROW), 3.0, p).tolist() == [True, True, True, True]
+    assert _far_cut(xy, ei, ej, Level(ROW), 3.0, p).tolist() == [True, True, True, True]
     # no horizon row (NaN) at a column: kept
-    assert _far_cut(xy, ei, ej, _Level(np.nan), 1.0, p).all()
+    assert _far_cut(xy, ei, ej, Level(np.nan), 1.0, p).all()
 
 
 # the extractor side: ``far_skip_ir`` (False: off) keeps the far pass off infrared frames
@@ -113,7 +104,7 @@ def _ext_run(ir, n=4, **kw):
 
     ext = StableFeatureExtractor(nominal_fps=25.0, **kw)
     for f in range(n):
-        snap = ext.process(_far_scene(), f / 25.0, horizon=_Level(ROW), ir=ir)
+        snap = ext.process(_far_scene(), f / 25.0, horizon=Level(ROW), ir=ir)
     return snap
 
 
@@ -139,7 +130,7 @@ def test_far_cut_on_visible_frames_only_unless_far_cut_ir():
     def top(ir, **kw):
         c = FeatureClusterer(_params(far_cut_px=12.0, far_cut_gap_px=6.0, **kw))
         for k in range(10):
-            dets, _ = c.update(_snap(k, BOAT + FAR), horizon=_Level(ROW), ir=ir)
+            dets, _ = c.update(_snap(k, BOAT + FAR), horizon=Level(ROW), ir=ir)
         b = dets.boxes
         return bool(np.any((b[:, 1] <= ROW + 3.0) & (b[:, 1] + b[:, 3] >= ROW + 24.0)))  # one box spans both
 

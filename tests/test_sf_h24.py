@@ -7,7 +7,7 @@ report lies near those rows at the edge."""
 
 import numpy as np
 
-from _feature_snap import dark_box_sea, shift, snap
+from _feature_snap import COAST_BASE, dark_box_sea, shift, snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 SHAPE = (160, 240)
@@ -31,9 +31,7 @@ def run(moves, boats, dys, rows, other=None, **kw):
     the expected box keeps its rows).  ``other``: a second dark box drawn in the last frame, with
     its own features (another boat, reported).  Returns the clusterer, the hull's identity and the
     tracks of each frame after the loss."""
-    base = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
-    base.update(kw)
-    c = FeatureClusterer(ClusterParams(**base))
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, **kw}))
     tr = None
     for k in range(6):
         _, tr = c.update(snap([[104, 63], [112, 66]], [[5, 0], [5, 0]], 0.1 * k, k, [1, 2]),

@@ -9,22 +9,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from _feature_snap import Level
+
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _far_cut
 
 ROW = 100.0  # the horizon's row
 
 
-class _Level:
-    def __init__(self, r):
-        self.r = float(r)
-
-    def row_at(self, x):
-        return np.full(np.shape(x), self.r)
 
 
 def _clusterer(ir=False, **kw):
     fc = FeatureClusterer(ClusterParams(**kw))
-    fc._horizon = _Level(ROW)
+    fc._horizon = Level(ROW)
     fc._ir = ir
     fc._zoom = 1.0
     return fc
@@ -98,16 +94,16 @@ def test_far_cut_deep():
     xy, ei, ej = _edges()
     # off by default: H22's cut alone (12 px, gap 6) drops only the tall far ship's edge 4-5
     assert ClusterParams().far_cut_deep_px == 0
-    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, ClusterParams(far_cut_px=12.0))
+    keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, ClusterParams(far_cut_px=12.0))
     assert keep.tolist() == [True, True, True, False]
     # the deeper band (30 px, gap 20) drops the edges from the near-far boat to the boat below
     p = ClusterParams(far_cut_px=12.0, far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
-    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, p)
+    keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, p)
     assert keep.tolist() == [True, False, False, False]
     # the gap is scaled by the zoom: at zoom 2 (gap 40 px) the 41 px edge 0-2 is dropped, the 36 px one 1-3 kept
-    keep = _far_cut(xy, ei, ej, _Level(ROW), 2.0, p)
+    keep = _far_cut(xy, ei, ej, Level(ROW), 2.0, p)
     assert keep.tolist() == [True, False, True, False]  # (4-5: H22's gap 12 px at zoom 2)
     # the deep band alone (far_cut_px off): the tall far ship keeps its 16 px edge
     p = ClusterParams(far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
-    keep = _far_cut(xy, ei, ej, _Level(ROW), 1.0, p)
+    keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, p)
     assert keep.tolist() == [True, False, False, True]

@@ -4,20 +4,14 @@ session 21 H4): with the telemetry's exact camera motion a slow boat is not stat
 from __future__ import annotations
 
 import numpy as np
+
+from _feature_snap import Level
 import pytest
 
 from seawatch.detect.features import FeatureSnapshot
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 
-class _Level:
-    """A level sea horizon at row ``r``."""
-
-    def __init__(self, r):
-        self.r = float(r)
-
-    def row_at(self, x):
-        return np.full(np.shape(x), self.r)
 
 
 def _scene(k, coast_speed, boat_speed=1.0, seed=0):
@@ -44,7 +38,7 @@ def _scene(k, coast_speed, boat_speed=1.0, seed=0):
 
 def _run(params, coast_speed, horizon=True, frames=12, boat_speed=1.0):
     c = FeatureClusterer(params)
-    hz = _Level(50) if horizon else None
+    hz = Level(50) if horizon else None
     n_det = []
     for k in range(frames):
         dets, _ = c.update(_scene(k, coast_speed, boat_speed), horizon=hz)
@@ -85,7 +79,7 @@ def test_intermediate_error_and_smoothing():
     # the snapshots are 0.04 s apart: a time constant of 0.04 / ln 2 weighs the new frame 0.5
     p = _params(known_min_speed_px_s=0.8, known_err_k=2.0, known_err_tau_s=0.04 / np.log(2.0))
     c = FeatureClusterer(p)
-    hz = _Level(50)
+    hz = Level(50)
     c.update(_scene(0, 0.6), horizon=hz)
     assert c.camera_err_px_s == pytest.approx(0.6)
     assert c.min_speed_px_s == pytest.approx(1.2)
@@ -112,7 +106,7 @@ def _with_h(s, dx):
 
 def test_still_gate_lowers_floor_only_with_still_camera():
     p = _params(known_min_speed_px_s=0.8, known_still_px=0.1)
-    hz = _Level(50)
+    hz = Level(50)
     # a panning camera (2 px a frame): no estimate, the floor stays, no cluster
     c = FeatureClusterer(p)
     n = [len(c.update(_with_h(_scene(k, 0.1), 2.0), horizon=hz)[0]) for k in range(12)]
