@@ -8,7 +8,8 @@ import numpy as np
 
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer, _coast_foot
 
-from test_sf_far import ROW, _image, _Level, stable_snap
+from _feature_snap import Level
+from test_sf_far import ROW, _image, stable_snap
 
 # the coast foot's features: 4.5-7 px under the horizon (inside the 8-px margin), x 60-100
 FOOT = [(60.0, 5.0), (72.0, 6.5), (85.0, 4.5), (98.0, 6.0)]
@@ -31,7 +32,7 @@ def _params(**kw):
 
 def _reports(params, pts, coast_x1, zoom=1.0, frames=6, image=True):
     c = FeatureClusterer(params)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     img = _image(coast_x1)
     out = []
     for k in range(frames):
@@ -73,7 +74,7 @@ def test_without_an_image_nothing_changes():
 
 def test_coast_foot_mask():
     p = _params(foot_open_px=10.0)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     xy = np.array([(x, ROW + dy) for x, dy in FOOT + [(250.0, 5.0), (262.0, 6.0), (150.0, 5.0), (150.0, 20.0)]])
     k = np.array([0, 0, 0, 0, 1, 1, 2, 2])
     boxes = np.array([[58.0, 102.0, 42.0, 5.0], [248.0, 103.0, 16.0, 5.0], [148.0, 103.0, 4.0, 19.0]])
@@ -97,7 +98,7 @@ def _under_image(strip_x1=200, sky=200.0, sea=125.0, seed=4):
 
 def _reports_on(params, pts, img, frames=6):
     c = FeatureClusterer(params)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     return [c.update(_snap(k, pts), image=img, horizon=hz)[0].boxes.copy() for k in range(frames)]
 
 
@@ -126,7 +127,7 @@ def test_under_dark_mask():
     from seawatch.track.feature_clusters import _under_dark
 
     p = _params(foot_open_px=10.0, foot_dark=8.0)
-    hz = _Level(ROW)
+    hz = Level(ROW)
     x = np.array([50.0, 250.0, 1.0, 150.0])
     # 50 and 150 on the strip, 250 open sea, 1 outside the image
     assert _under_dark(_under_image(200), x, hz, 1.0, p, 8.0).tolist() == [True, False, False, True]
