@@ -2857,7 +2857,24 @@ class ClusterParams:
     ``far_cut_deep_gap_px`` below it is dropped too (on frames where ``far_cut_px``'s cut acts:
     visible ones unless ``far_cut_ir``).  A boat 12-25 px under the horizon (sim ``pan`` 20's tug)
     otherwise joins a boat 35-50 px below it in one cluster, its identity passing between them; a
-    tall ship near the horizon keeps its features (less than the gap apart) together."""
+    tall ship near the horizon keeps its features (less than the gap apart) together.
+
+    Session 27 (helper h29, two identities on one boat during a fast pan): ``lost_dup_iou`` (IoU,
+    0: off): when an identity is lost (no hand-over took it) that was first seen less than
+    ``lost_dup_age_s`` (0.5 s; seconds) before, after another identity had been lost, and its
+    last box (carried into this frame) overlaps that older lost identity's expected box by at
+    least this IoU, it is retired into the older one: the older identity takes its place, time
+    lost and the rest of its lost entry, and a cluster that carried the young identity and comes
+    back is reported under the older one.  The young identity was the relink's missed chance (on
+    sim ``pan`` 90 with the far pass, at 10.6 s the motorboat's new cluster 112 was born too
+    small for ``relink_min_area`` beside its lost identity 81, died at 10.9 s unconfirmed, and
+    the two lost identities then alternated on the boat to 29 s: four switches).  The youngest
+    identity has never been reported (``confirm_s``), so the older one is the boat's last.
+    ``relink_area_at_loss`` (False: off): ``relink_min_area`` compares a new cluster's box with the
+    smaller of the lost identity's expected box and its box at the loss (its area times the square
+    of the zoom now over the zoom then): a coast (``coast_follow``) may grow the expected box onto
+    the wake or the sea (on sim ``pan`` 90 at 16.8 s the motorboat's coasted box grew from 20 x 12
+    to 76 x 14 px, and its new 15 x 9 px cluster was refused the identity)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3065,6 +3082,9 @@ class ClusterParams:
     far_id_ir: bool = False
     far_cut_deep_px: float = 0.0
     far_cut_deep_gap_px: float = 20.0
+    lost_dup_iou: float = 0.0
+    lost_dup_age_s: float = 0.5
+    relink_area_at_loss: bool = False
 
 
 class FeatureClusterer:
@@ -3144,6 +3164,7 @@ class FeatureClusterer:
         self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
+        self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -3848,7 +3869,11 @@ class FeatureClusterer:
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
-                if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * lb[2] * lb[3]
+                a_ref = lb[2] * lb[3]
+                if p.relink_area_at_loss and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
+                    a0, z0 = self._lost_a0[k]
+                    a_ref = min(a_ref, a0 * (self._zoom / max(z0, 1e-6)) ** 2)
+                if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * a_ref
                         and (not p.relink_area_same_zoom
                              or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
                     continue  # session 21: a large boat's identity is not given to a much smaller cluster
@@ -3988,6 +4013,8 @@ class FeatureClusterer:
                         self._lost_alt_dir[k] = d
                 v0 = self._prev_vel.get(k)
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
+                if p.relink_area_at_loss:
+                    self._lost_a0[k] = (float(self._lost[k][1][2] * self._lost[k][1][3]), self._zoom)
                 if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0:
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
@@ -4035,6 +4062,8 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
                         self._lost_alt.pop(r, None)
                         self._lost_alt_dir.pop(r, None)
+        if p.lost_dup_iou > 0:  # session 27 (h29): a young lost identity beside an older lost one
+            self._lost_dup(t)
         if p.relink_side_h_ratio > 0 and getattr(snap, "shape", None) is not None:
             # relink_side_h_ratio: each reported identity's last heights clear of the image's side edges
             w_img = float(snap.shape[1])
@@ -4055,6 +4084,8 @@ class FeatureClusterer:
             self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
         if len(self._returned) > 2 * len(self._lost) + 16:  # bounded memory
             self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
+        if len(self._lost_a0) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_a0 = {k: v for k, v in self._lost_a0.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
         if len(self._swapped) > 2 * len(now) + 16:  # bounded memory
@@ -4069,6 +4100,46 @@ class FeatureClusterer:
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _lost_dup(self, t: float) -> None:
+        """``lost_dup_iou`` (session 27, h29): each identity lost this frame (time lost ``t``) and
+        first seen less than ``lost_dup_age_s`` before, after an older identity was lost, whose box
+        overlaps that older identity's expected box by ``lost_dup_iou`` (IoU) or more, is retired
+        into it: the older identity (the best overlap) takes the young one's lost entry."""
+        p = self.params
+        young = [k for k, e in self._lost.items()
+                 if abs(e[0] - t) < 1e-9 and t - self._birth.get(k, -np.inf) < p.lost_dup_age_s + 1e-9]
+        for k in young:
+            e = self._lost.get(k)
+            if e is None:
+                continue
+            born = self._birth[k]
+            best, best_o = None, p.lost_dup_iou
+            for j, (tl, lb, _) in self._lost.items():
+                if j == k or tl > born + 1e-9:
+                    continue  # the older identity was lost before the young one was first seen
+                o = _iou(np.asarray(e[1], np.float64), np.asarray(lb, np.float64))
+                if o >= best_o:
+                    best, best_o = j, o
+            if best is None:
+                continue
+            j = best
+            self._lost[j] = e
+            del self._lost[k]
+            for dct in (self._lost_dir, self._lost_zoom, self._lost_v, self._lost_sig, self._lost_a0):
+                if k in dct:
+                    dct[j] = dct.pop(k)
+                else:
+                    dct.pop(j, None)
+            for dct in (self._lost_alt, self._lost_alt_dir, self._relinked, self._relinked_alt):
+                dct.pop(k, None)
+            if k in self._lost_side:
+                self._lost_side.discard(k)
+                self._lost_side.add(j)
+            else:
+                self._lost_side.discard(j)
+            for c in [c for c, r in self._alias.items() if r == k] + [k]:
+                self._alias[c] = j  # a cluster of the young identity that comes back is reported as the older
 
     def _jump_lost(self, carry, cids, boxes, rep, t) -> None:
         """``relink_jump_iou`` (session 24): a cluster reported last frame under identity ``r`` whose
