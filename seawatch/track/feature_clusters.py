@@ -2874,7 +2874,14 @@ class ClusterParams:
     smaller of the lost identity's expected box and its box at the loss (its area times the square
     of the zoom now over the zoom then): a coast (``coast_follow``) may grow the expected box onto
     the wake or the sea (on sim ``pan`` 90 at 16.8 s the motorboat's coasted box grew from 20 x 12
-    to 76 x 14 px, and its new 15 x 9 px cluster was refused the identity)."""
+    to 76 x 14 px, and its new 15 x 9 px cluster was refused the identity).  ``relink_retry_s``
+    (0: off; seconds): a cluster first seen less than this long ago and still under its own identity
+    is offered the lost identities again in each frame, as a new cluster is (with every check), but
+    only those lost before it was first seen; its own identity is then retired, not lost.  Below
+    ``confirm_s`` its own identity was never reported.  A boat's new cluster is often born on a few
+    features, a box too small for ``relink_min_area``, and grows in the next frames (on sim ``pan`` 82
+    at 15.0 s the motorboat's new 9 x 4 px cluster beside its lost 35 x 9 px box, reported under its
+    own identity from 15.6 s)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3085,6 +3092,7 @@ class ClusterParams:
     lost_dup_iou: float = 0.0
     lost_dup_age_s: float = 0.5
     relink_area_at_loss: bool = False
+    relink_retry_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -3820,11 +3828,18 @@ class FeatureClusterer:
         # relink_view_px: the image's size (width, height), None when off or unknown
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
-        far_new = self._far_side(boxes) if new else None  # far_id_px: each cluster in the far strip
-        for i in new:
+        retry = set()
+        if p.relink_retry_s > 0:  # session 27 (h29): young clusters under their own identity, not yet confirmed
+            seen = set(new)
+            retry = {i for i in range(len(cids)) if i not in seen and int(rep[i]) == int(cids[i])
+                     and t - self._birth.get(int(cids[i]), -np.inf) < p.relink_retry_s - 1e-9}
+        far_new = self._far_side(boxes) if (new or retry) else None  # far_id_px: each cluster in the far strip
+        for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
                     continue
+                if i in retry and tl > self._birth[int(cids[i])] + 1e-9:
+                    continue  # relink_retry_s: only an identity lost before the young cluster was first seen
                 d = gap_px(boxes[i], lb)
                 rate = p.relink_px_per_s
                 if p.relink_own_speed_k > 0 and vl is not None and np.all(np.isfinite(vl)):
@@ -3894,12 +3909,15 @@ class FeatureClusterer:
                     pairs.append((d, -o, i, k))
         done = set()
         self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
+        retired = set()  # relink_retry_s: the young clusters' own identities given up for a lost one
         for d, _, i, k in sorted(pairs):
             if i in done or k in present:
                 continue
             if p.hand_over_relinked:
                 self._relinked_now[k] = (i, self._lost[k], self._lost_dir.get(k), self._lost_alt.get(k),
                                          self._lost_alt_dir.get(k), self._relinked.get(k), self._relinked_alt.get(k))
+            if i in retry:
+                retired.add(int(rep[i]))
             self._alias[int(cids[i])] = k
             rep[i] = k
             present.add(k)
@@ -3940,7 +3958,7 @@ class FeatureClusterer:
         if vel is not None and len(rep) and own_v is not None:
             own = {int(r): np.nan_to_num(own_v[i]) for i, r in enumerate(rep)}
         self._own_now = {int(r): (own_k[i], cam_s[i]) for i, r in enumerate(rep)} if own_k is not None else {}
-        renamed = set()  # younger identities handed over to an older one: retired, not lost
+        renamed = set(retired)  # younger identities handed over to an older one: retired, not lost
         for k, b in self._prev_boxes.items():
             if k not in now and k not in renamed:
                 back = self._relinked.pop(k, None)
