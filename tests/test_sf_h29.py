@@ -2,7 +2,8 @@
 ``lost_dup_iou`` (0: off) with ``lost_dup_age_s``: a young lost identity (first seen less than
 ``lost_dup_age_s`` before its loss, after an older identity was lost) whose box overlaps that older
 lost identity's expected box is retired into it; ``relink_area_at_loss`` (False: off):
-``relink_min_area`` compares with the smaller of the expected box and the box at the loss."""
+``relink_min_area`` compares with the smaller of the expected box and the box at the loss;
+``relink_retry_s`` (0: off): a young cluster under its own identity is offered the lost identities again."""
 
 import numpy as np
 
@@ -13,6 +14,7 @@ PA = [[100, 60], [130, 70]]  # the boat's first cluster A
 PB = [[112, 62], [136, 72]]  # its young cluster B (and later C): overlaps A's box
 PD = [[20, 120], [44, 130]]  # another boat far away (keeps the frames non-empty)
 V = [[10.0, 0.0]] * 2
+VB = [[-10.0, 0.0]] * 2  # the young cluster of the retry tests (apart from A while both are seen)
 OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.4, relink_s=10.0, coast_s=0.0,
            relink_view_px=0.0, relink_dy_h=0.0, relink_dy_px_per_s=0.0, relink_dy_side=False,
            hand_over_relinked=False, split_follow_box=0.0, relink_min_s=0.0, relink_overlap=0.0,
@@ -26,6 +28,7 @@ def test_off_by_default():
     assert d.lost_dup_iou == 0.0
     assert d.lost_dup_age_s == 0.5
     assert d.relink_area_at_loss is False
+    assert d.relink_retry_s == 0.0
 
 
 def _dup_run(**kw):
@@ -93,3 +96,45 @@ def test_area_at_loss_off_refuses_under_a_grown_box():
 def test_area_at_loss_compares_with_the_box_at_the_loss():
     got, a_id = _area_run(relink_area_at_loss=True)
     assert got == a_id
+
+
+def _retry_run(lose_after=False, **kw):
+    """A on the boat at 0-0.1 s, lost at 0.2 s; at 0.3 s a new cluster B of two close features inside A's
+    box (too small for ``relink_min_area``), at 0.4 s B's features spread over the boat.  ``lose_after``:
+    B is first seen at 0.2 s beside A's box and A is lost at 0.3 s, after it.  Returns B's identity at 0.4 s, A's, B's own and the
+    clusterer."""
+    c = FeatureClusterer(ClusterParams(**{**OFF, "relink_min_area": 0.3, **kw}))
+    _, t0 = c.update(snap(PD + PA, V * 2, 0.0, 0, ids=[7, 8, 1, 2]))
+    d_id = int(t0.ids[0])
+    a_id = max(int(i) for i in t0.ids)
+    tiny = [[114, 64], [116, 65]]
+    c.update(snap(PD + PA, V * 2, 0.1, 1, ids=[7, 8, 1, 2]))
+    if lose_after:  # B first seen at 0.2 s beside A's box (apart from it), A lost at 0.3 s
+        c.update(snap(PD + PA + [[140, 64], [142, 65]], V * 2 + VB, 0.2, 2, ids=[7, 8, 1, 2, 5, 6]))
+        _, t3 = c.update(snap(PD + [[140, 64], [142, 65]], V + VB, 0.3, 3, ids=[7, 8, 5, 6]))
+    else:
+        c.update(snap(PD, V, 0.2, 2, ids=[7, 8]))
+        _, t3 = c.update(snap(PD + tiny, V + VB, 0.3, 3, ids=[7, 8, 5, 6]))
+    b_id = max(int(i) for i in t3.ids if int(i) not in (d_id, a_id))
+    _, t4 = c.update(snap(PD + PA, V + VB, 0.4, 4, ids=[7, 8, 5, 6]))
+    got = [int(i) for i in t4.ids if int(i) != d_id]
+    assert len(got) == 1
+    return got[0], a_id, b_id, c
+
+
+def test_retry_off_keeps_the_young_cluster_apart():
+    got, a_id, b_id, c = _retry_run()
+    assert got == b_id and a_id in c._lost
+
+
+def test_retry_gives_the_lost_identity_to_the_grown_young_cluster():
+    got, a_id, b_id, c = _retry_run(relink_retry_s=1.0)
+    assert got == a_id and a_id not in c._lost
+    assert b_id not in c._lost  # the young cluster's own identity is retired, not lost
+
+
+def test_retry_needs_a_young_cluster_born_after_the_loss():
+    got, a_id, b_id, c = _retry_run(relink_retry_s=0.05)  # B 0.1 s old at 0.4 s: no longer young
+    assert got == b_id and a_id in c._lost
+    got, a_id, b_id, c = _retry_run(lose_after=True, relink_retry_s=1.0)  # A lost after B was first seen
+    assert got == b_id
