@@ -1,5 +1,6 @@
 """Session 27 (issue #8, helper h28): one coast per boat.  ``coast_dup_iou``: among one frame's coasts
-whose reported boxes overlap by at least that IoU only the most recently lost is reported (the others
+whose reported boxes overlap by at least that IoU only the most recently lost (``coast_dup_seen``: the one
+reported last) is reported (the others
 end); ``coast_live_iou``: a coast whose reported box overlaps a live report by at least that IoU is not
 reported and ends.  Synthetic: the lost identities are set directly and ``_coast`` is called without
 the image check (``coast_check`` False: a coast is reported at its expected box)."""
@@ -21,15 +22,15 @@ def _clusterer(**kw):
     return c
 
 
-def _coast(c, t, reported=np.zeros((0, 4))):
+def _coast(c, t, reported=np.zeros((0, 4)), present=frozenset()):
     snap = SimpleNamespace(t_s=t, shape=(480, 640), frame_index=int(round(t * 10)), ids=np.zeros(0, np.int64))
-    ids, boxes, _ = c._coast(snap, np.asarray(reported, np.float64), None)
+    ids, boxes, _ = c._coast(snap, np.asarray(reported, np.float64), None, present)
     return sorted(ids.tolist())
 
 
 def test_off_by_default():
     p = ClusterParams()
-    assert p.coast_dup_iou == 0.0 and p.coast_live_iou == 0.0
+    assert p.coast_dup_iou == 0.0 and p.coast_live_iou == 0.0 and p.coast_dup_seen is False
     assert _coast(_clusterer(), 7.0) == [9, 17, 30]  # both coasts on the one boat are reported
 
 
@@ -55,3 +56,11 @@ def test_a_coast_over_a_live_report_yields():
     c = _clusterer(coast_overlap=0.99, coast_live_iou=0.3)
     assert _coast(c, 7.0, live) == [30]
     assert _coast(c, 7.1) == [30]  # ended
+
+
+def test_coast_dup_seen_keeps_the_coast_reported_last():
+    for seen, kept in ((True, [17, 30]), (False, [9, 30])):
+        c = _clusterer(coast_dup_iou=0.5, coast_dup_seen=seen)
+        assert _coast(c, 7.0, present={9}) == [17, 30]  # 9 not coasted now (reported through the label memory)
+        # 9, lost later (6.7 s) than 17 (6.3 s), comes onto 17's box: 17 was reported last (7.0 s)
+        assert _coast(c, 7.1) == kept

@@ -2558,6 +2558,10 @@ class ClusterParams:
     ``coast_live_iou`` (IoU; 0: off): a coast whose reported box (after the grow) overlaps one of this
     frame's live reports by at least this IoU is not reported and ends (``coast_overlap`` checks the
     expected box before the grow only, as the fraction of it inside a report).
+    ``coast_dup_seen`` (False: off): with ``coast_dup_iou``, the coast kept is the one reported last (as a
+    coast, or live at its loss), the loss time only breaking ties: on ``pan`` 89 an edge look brought a coast
+    lost 2 s before (227 px outside) onto the boat that another identity's coast, lost 10.8 s before, had
+    been reported on every frame; the more recently lost one took the boat.
 
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
@@ -3054,6 +3058,7 @@ class ClusterParams:
     coast_edge_horizon_h: float = 0.0
     coast_dup_iou: float = 0.0
     coast_live_iou: float = 0.0
+    coast_dup_seen: bool = False
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -3187,6 +3192,7 @@ class FeatureClusterer:
         # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
         self._coast_fail: dict = {}
         self._coast_seen: dict = {}  # coast_edge_seen: identity -> (loss time, last time its coast was seen)
+        self._coast_rep: dict = {}  # coast_dup_seen: identity -> (loss time, last time its coast was reported)
         # coast_edge_horizon: identity -> (loss time, its box bottom's px below the horizon, zoom, height) when last seen
         self._coast_rows: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
@@ -4878,6 +4884,11 @@ class FeatureClusterer:
         if (p.coast_dup_iou > 0 or p.coast_live_iou > 0) and ok.any():
             self._coast_dedup(ids, lbs, ok, why, reported)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
+        if p.coast_dup_iou > 0 and p.coast_dup_seen:
+            for j in np.flatnonzero(ok):  # reported now (the loss time keys it)
+                self._coast_rep[int(ids[j])] = (self._lost[int(ids[j])][0], t)
+            if len(self._coast_rep) > 2 * len(self._lost) + 16:
+                self._coast_rep = {k: v for k, v in self._coast_rep.items() if k in self._lost}
         if p.coast_edge_horizon and self._horizon is not None and snap.shape is not None and len(ids):
             self._record_rows(ids, lbs, ok, why, snap.shape)
         if p.coast_edge_seen:
@@ -4933,7 +4944,13 @@ class FeatureClusterer:
             sel, b = sel[~live], b[~live]
         if p.coast_dup_iou > 0 and len(sel) > 1:
             tl = np.array([self._lost[int(ids[j])][0] for j in sel], np.float64)
-            order = np.lexsort((ids[sel], -tl))  # most recently lost first, then the lower identity
+            if p.coast_dup_seen:  # reported last first (a coast's last report for this loss, else the loss)
+                seen = np.array([max(tl[i], self._coast_rep.get(int(ids[j]), (None, 0.0))[1])
+                                 if self._coast_rep.get(int(ids[j]), (None, 0.0))[0] == tl[i] else tl[i]
+                                 for i, j in enumerate(sel)], np.float64)
+                order = np.lexsort((ids[sel], -tl, -seen))
+            else:
+                order = np.lexsort((ids[sel], -tl))  # most recently lost first, then the lower identity
             m = iou_matrix(b, b)
             kept = []
             for o in order:
