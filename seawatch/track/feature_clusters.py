@@ -38,6 +38,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from seawatch.detect.features import FeatureSnapshot, StableFeatureExtractor, to_grey_u8
+from seawatch.track.sort import iou_matrix
 from seawatch.types import Detections, Frame, Modality, Tracks, TrackState
 
 __all__ = [
@@ -2548,6 +2549,20 @@ class ClusterParams:
     0.45 and ``pan`` 47's sea texture 0.54.  With 1.5 no contrast floor (``coast_edge_horizon_contrast``)
     is needed.
 
+    Session 27 (helper h28, the rib's flip-flop between two coasts on ``pan`` 86): ``coast_dup_iou`` (IoU;
+    0: off): among one frame's coasts that pass their checks, those whose reported boxes (after the grow,
+    the follow and the edge look) overlap by at least this IoU are one boat: only the most recently lost of
+    them (ties: the lower identity) is reported, the others end as a failed coast does (until found and lost
+    again).  ``coast_follow`` grows two coasts that lost the same boat onto the same object, and both are
+    then reported on it every frame, so the boat's identity alternates between them.
+    ``coast_live_iou`` (IoU; 0: off): a coast whose reported box (after the grow) overlaps one of this
+    frame's live reports by at least this IoU is not reported and ends (``coast_overlap`` checks the
+    expected box before the grow only, as the fraction of it inside a report).
+    ``coast_dup_seen`` (False: off): with ``coast_dup_iou``, the coast kept is the one reported last (as a
+    coast, or live at its loss), the loss time only breaking ties: on ``pan`` 89 an edge look brought a coast
+    lost 2 s before (227 px outside) onto the boat that another identity's coast, lost 10.8 s before, had
+    been reported on every frame; the more recently lost one took the boat.
+
     Session 24 (helper H10, faint boats round 2): ``coast_look_up`` (0: off): a coast whose grow was not
     found at its expected box is looked at once more, grown from the middle half of that box
     extended upward by this many times its height (the expected box was the hull alone, and the
@@ -3065,6 +3080,9 @@ class ClusterParams:
     coast_edge_horizon_contrast: float = 0.0
     coast_edge_horizon_out: float = 0.0
     coast_edge_horizon_h: float = 0.0
+    coast_dup_iou: float = 0.0
+    coast_live_iou: float = 0.0
+    coast_dup_seen: bool = False
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -3203,6 +3221,7 @@ class FeatureClusterer:
         # coast_retry_s: lost identity -> (time of its loss, time of the first of its coast's failed looks in a row)
         self._coast_fail: dict = {}
         self._coast_seen: dict = {}  # coast_edge_seen: identity -> (loss time, last time its coast was seen)
+        self._coast_rep: dict = {}  # coast_dup_seen: identity -> (loss time, last time its coast was reported)
         # coast_edge_horizon: identity -> (loss time, its box bottom's px below the horizon, zoom, height) when last seen
         self._coast_rows: dict = {}
         self._joined_ids: set = set()  # identities of the clusters joined into another's report this frame
@@ -4951,7 +4970,14 @@ class FeatureClusterer:
                 wait &= edge
             if p.coast_check and image is not None and edge.any():
                 self._coast_edge_look(image, snap.shape, ids, lbs, ok, why, edge, reported, wait)
+        if (p.coast_dup_iou > 0 or p.coast_live_iou > 0) and ok.any():
+            self._coast_dedup(ids, lbs, ok, why, reported)
         self.coast_log.extend((t, int(k), lbs[j].copy(), str(why[j])) for j, k in enumerate(ids))
+        if p.coast_dup_iou > 0 and p.coast_dup_seen:
+            for j in np.flatnonzero(ok):  # reported now (the loss time keys it)
+                self._coast_rep[int(ids[j])] = (self._lost[int(ids[j])][0], t)
+            if len(self._coast_rep) > 2 * len(self._lost) + 16:
+                self._coast_rep = {k: v for k, v in self._coast_rep.items() if k in self._lost}
         if p.coast_edge_horizon and self._horizon is not None and snap.shape is not None and len(ids):
             self._record_rows(ids, lbs, ok, why, snap.shape)
         if p.coast_edge_seen:
@@ -4991,6 +5017,37 @@ class FeatureClusterer:
         if not ok.any():
             return empty
         return ids[ok], lbs[ok], vel[ok]
+
+    def _coast_dedup(self, ids, lbs, ok, why, reported):
+        """``params.coast_live_iou`` / ``params.coast_dup_iou`` (session 27, h28): the coasts in ``ok``
+        whose box ``lbs`` overlaps a live report (``reported``) by at least ``coast_live_iou``, or another
+        coast kept now by at least ``coast_dup_iou``, are set not ``ok`` (``why`` "live" / "duplicate"); among
+        overlapping coasts the most recently lost one is kept (ties: the lower identity)."""
+        p = self.params
+        sel = np.flatnonzero(ok)
+        b = lbs[sel]
+        if p.coast_live_iou > 0 and len(reported):
+            live = iou_matrix(b, np.asarray(reported, np.float64).reshape(-1, 4)).max(axis=1) >= p.coast_live_iou
+            ok[sel[live]] = False
+            why[sel[live]] = "live"
+            sel, b = sel[~live], b[~live]
+        if p.coast_dup_iou > 0 and len(sel) > 1:
+            tl = np.array([self._lost[int(ids[j])][0] for j in sel], np.float64)
+            if p.coast_dup_seen:  # reported last first (a coast's last report for this loss, else the loss)
+                seen = np.array([max(tl[i], self._coast_rep.get(int(ids[j]), (None, 0.0))[1])
+                                 if self._coast_rep.get(int(ids[j]), (None, 0.0))[0] == tl[i] else tl[i]
+                                 for i, j in enumerate(sel)], np.float64)
+                order = np.lexsort((ids[sel], -tl, -seen))
+            else:
+                order = np.lexsort((ids[sel], -tl))  # most recently lost first, then the lower identity
+            m = iou_matrix(b, b)
+            kept = []
+            for o in order:
+                if kept and m[o, kept].max() >= p.coast_dup_iou:
+                    ok[sel[o]] = False
+                    why[sel[o]] = "duplicate"
+                else:
+                    kept.append(int(o))
 
     def _record_rows(self, ids, lbs, ok, why, shape):
         """``params.coast_edge_horizon``: remember, for each coast seen now in the image (``ok``), or
