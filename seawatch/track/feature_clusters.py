@@ -2857,7 +2857,15 @@ class ClusterParams:
     ``far_cut_deep_gap_px`` below it is dropped too (on frames where ``far_cut_px``'s cut acts:
     visible ones unless ``far_cut_ir``).  A boat 12-25 px under the horizon (sim ``pan`` 20's tug)
     otherwise joins a boat 35-50 px below it in one cluster, its identity passing between them; a
-    tall ship near the horizon keeps its features (less than the gap apart) together."""
+    tall ship near the horizon keeps its features (less than the gap apart) together.
+
+    ``edge_min_w_px`` (session 27, h30; px, not scaled; 0: off): a box that touches the image's left or
+    right edge and is clipped there to under this width (its members have left the view: U reports
+    such boxes as ``[0, y, 0, h]``) is not reported.  Its identity is then lost with its last whole
+    box and its look (``relink_appearance``'s signature), not with a zero-width box whose look is
+    unknown (no appearance check) and whose row and height are the strip's at the edge.  On ``pan`` 94
+    under U the fishing boat's identity was lost as ``[0, 316, 0, 7]`` and taken 25 s later by the RIB
+    at the pan's return, unchecked; the boat then took the RIB's (a swap, 2 switches)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3065,6 +3073,7 @@ class ClusterParams:
     far_id_ir: bool = False
     far_cut_deep_px: float = 0.0
     far_cut_deep_gap_px: float = 20.0
+    edge_min_w_px: float = 0.0
 
 
 class FeatureClusterer:
@@ -4616,6 +4625,15 @@ class FeatureClusterer:
             if keep_c is None:
                 keep_c = ok
             else:  # a mask over the clusters, or the indices kept so far
+                keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
+        if p.edge_min_w_px > 0 and snap.shape is not None and len(cids):
+            # edge_min_w_px: a box clipped to a sliver at the image's side edge has left the view
+            w_img = float(snap.shape[1])
+            ok = ~((boxes[:, 2] < p.edge_min_w_px) & ((boxes[:, 0] <= 0.0) | (boxes[:, 0] + boxes[:, 2] >= w_img)))
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            if keep_c is None:
+                keep_c = ok
+            else:
                 keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
         if p.foot_open_px > 0 and image is not None and self._horizon is not None and len(cids):
             # a cluster wholly inside the water margin with no open sea beside it: the foot of a coast
