@@ -2865,7 +2865,14 @@ class ClusterParams:
     box and its look (``relink_appearance``'s signature), not with a zero-width box whose look is
     unknown (no appearance check) and whose row and height are the strip's at the edge.  On ``pan`` 94
     under U the fishing boat's identity was lost as ``[0, 316, 0, 7]`` and taken 25 s later by the RIB
-    at the pan's return, unchecked; the boat then took the RIB's (a swap, 2 switches)."""
+    at the pan's return, unchecked; the boat then took the RIB's (a swap, 2 switches).
+
+    ``relink_app_margin`` (session 27, h30; appearance distance, no unit; 0: off; needs
+    ``relink_appearance``): a new cluster with two or more lost identities in its relink gate whose looks
+    are known takes none whose appearance distance exceeds the smallest of them by more than this margin
+    (the relink's pairs go nearest first; the gate does not see that a boat has moved ~200 px in 25 s out
+    of view at the pan's return, its look does).  On ``pan`` 21 and 93 the nearer lost identity looked
+    0.70 / 1.16 away, the right one 0.05 / 0.39."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3074,6 +3081,7 @@ class ClusterParams:
     far_cut_deep_px: float = 0.0
     far_cut_deep_gap_px: float = 20.0
     edge_min_w_px: float = 0.0
+    relink_app_margin: float = 0.0
 
 
 class FeatureClusterer:
@@ -3809,6 +3817,7 @@ class FeatureClusterer:
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
         far_new = self._far_side(boxes) if new else None  # far_id_px: each cluster in the far strip
+        app_d = {}  # relink_app_margin: (new cluster, lost identity) -> appearance distance, where known
         for i in new:
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -3869,13 +3878,23 @@ class FeatureClusterer:
                 if d <= gate and far_new is not None and bool(far_new[i]) != bool(self._far_side(lb[None])[0]):
                     continue  # session 26 round 2 (H25, far_id_px): not across the far strip's line
                 if d <= gate:
+                    n_log = len(self.relink_log)
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
+                    if p.relink_app_margin > 0 and p.relink_appearance and len(self.relink_log) > n_log:
+                        app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
+        if p.relink_app_margin > 0 and len(app_d) > 1:
+            # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
+            # more than the margin further away than the best-looking one are not its candidates
+            best = {}
+            for (i, k), a in app_d.items():
+                best[i] = min(best.get(i, np.inf), a)
+            pairs = [q for q in pairs if app_d.get((q[2], q[3]), -np.inf) <= best.get(q[2], np.inf) + p.relink_app_margin]
         done = set()
         self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
         for d, _, i, k in sorted(pairs):
