@@ -57,3 +57,43 @@ def test_a_narrow_box_inside_the_image_is_still_reported():
     for k in range(6):
         _, tr = c.update(snap([[120, 60], [120.5, 68]], [[-5, 0], [-5, 0]], 0.1 * k, k, [1, 2]), None)
     assert len(tr) == 1 and tr.boxes[0][2] < 5
+
+
+# relink_app_margin: two boats lost together; a new cluster is born nearer the one it does not look like
+
+
+def _two_lost(monkeypatch, dc, **kw):
+    """Boats A (features at x 85-93) and B (x 120-128) reported for 6 frames, both lost in frame 6, and a new
+    cluster born in frame 7 at x 108-116: nearer B's box (gap ~2 px) than A's (~11 px), both in the gate.
+    ``dc``: the appearance distance the relink's look check gives each lost identity (A, B)."""
+    def looks(self, k, i, cids, boxes, t, sig_new):
+        d = dc[0] if k == ids["A"] else dc[1]
+        self.relink_log.append((t, int(k), int(cids[i]), boxes[i].copy(), d, 0.0, d > 1.4))
+        return d <= 1.4
+
+    monkeypatch.setattr(FeatureClusterer, "_looks_alike", looks)
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, **kw}))
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap([[85, 63], [93, 66], [120, 63], [128, 66]], [[5, 0], [5, 0], [-5, 0], [-5, 0]],
+                              0.1 * k, k, [1, 2, 3, 4]), None)
+    assert len(tr) == 2
+    order = np.argsort(tr.boxes[:, 0])
+    ids = {"A": int(tr.ids[order[0]]), "B": int(tr.ids[order[1]])}
+    c.update(snap(np.zeros((0, 2)), np.zeros((0, 2)), 0.6, 6, []), None)
+    _, tr = c.update(snap([[108, 63], [116, 66]], [[3, 0], [3, 0]], 0.7, 7, [5, 6]), None)
+    born = [int(r) for r, b in zip(tr.ids, tr.boxes) if b[0] > 100 and b[0] < 115]
+    return ids, born
+
+
+def test_relink_app_margin_off_by_default_the_nearer_lost_identity_is_taken(monkeypatch):
+    assert ClusterParams().relink_app_margin == 0.0
+    ids, born = _two_lost(monkeypatch, (0.1, 0.9))
+    assert born == [ids["B"]]
+
+
+def test_relink_app_margin_the_better_looking_lost_identity_is_taken(monkeypatch):
+    ids, born = _two_lost(monkeypatch, (0.1, 0.9), relink_app_margin=0.5)
+    assert born == [ids["A"]]
+    ids, born = _two_lost(monkeypatch, (0.5, 0.9), relink_app_margin=0.5)  # within the margin: the nearer
+    assert born == [ids["B"]]
