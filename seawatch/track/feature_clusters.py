@@ -2896,7 +2896,22 @@ class ClusterParams:
     ``confirm_s`` its own identity was never reported.  A boat's new cluster is often born on a few
     features, a box too small for ``relink_min_area``, and grows in the next frames (on sim ``pan`` 82
     at 15.0 s the motorboat's new 9 x 4 px cluster beside its lost 35 x 9 px box, reported under its
-    own identity from 15.6 s)."""
+    own identity from 15.6 s).
+
+    ``edge_min_w_px`` (session 27, h30; px, not scaled; 0: off): a box that touches the image's left or
+    right edge and is clipped there to under this width (its members have left the view: U reports
+    such boxes as ``[0, y, 0, h]``) is not reported.  Its identity is then lost with its last whole
+    box and its look (``relink_appearance``'s signature), not with a zero-width box whose look is
+    unknown (no appearance check) and whose row and height are the strip's at the edge.  On ``pan`` 94
+    under U the fishing boat's identity was lost as ``[0, 316, 0, 7]`` and taken 25 s later by the RIB
+    at the pan's return, unchecked; the boat then took the RIB's (a swap, 2 switches).
+
+    ``relink_app_margin`` (session 27, h30; appearance distance, no unit; 0: off; needs
+    ``relink_appearance``): a new cluster with two or more lost identities in its relink gate whose looks
+    are known takes none whose appearance distance exceeds the smallest of them by more than this margin
+    (the relink's pairs go nearest first; the gate does not see that a boat has moved ~200 px in 25 s out
+    of view at the pan's return, its look does).  On ``pan`` 21 and 93 the nearer lost identity looked
+    0.70 / 1.16 away, the right one 0.05 / 0.39."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3111,6 +3126,8 @@ class ClusterParams:
     lost_dup_age_s: float = 0.5
     relink_area_at_loss: bool = False
     relink_retry_s: float = 0.0
+    edge_min_w_px: float = 0.0
+    relink_app_margin: float = 0.0
 
 
 class FeatureClusterer:
@@ -3853,6 +3870,7 @@ class FeatureClusterer:
             retry = {i for i in range(len(cids)) if i not in seen and int(rep[i]) == int(cids[i])
                      and t - self._birth.get(int(cids[i]), -np.inf) < p.relink_retry_s - 1e-9}
         far_new = self._far_side(boxes) if (new or retry) else None  # far_id_px: each cluster in the far strip
+        app_d = {}  # relink_app_margin: (new cluster, lost identity) -> appearance distance, where known
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -3919,13 +3937,23 @@ class FeatureClusterer:
                 if d <= gate and far_new is not None and bool(far_new[i]) != bool(self._far_side(lb[None])[0]):
                     continue  # session 26 round 2 (H25, far_id_px): not across the far strip's line
                 if d <= gate:
+                    n_log = len(self.relink_log)
                     if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
+                    if p.relink_app_margin > 0 and p.relink_appearance and len(self.relink_log) > n_log:
+                        app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
+        if p.relink_app_margin > 0 and len(app_d) > 1:
+            # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
+            # more than the margin further away than the best-looking one are not its candidates
+            best = {}
+            for (i, k), a in app_d.items():
+                best[i] = min(best.get(i, np.inf), a)
+            pairs = [q for q in pairs if app_d.get((q[2], q[3]), -np.inf) <= best.get(q[2], np.inf) + p.relink_app_margin]
         done = set()
         self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
         retired = set()  # relink_retry_s: the young clusters' own identities given up for a lost one
@@ -4724,6 +4752,15 @@ class FeatureClusterer:
             if keep_c is None:
                 keep_c = ok
             else:  # a mask over the clusters, or the indices kept so far
+                keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
+        if p.edge_min_w_px > 0 and snap.shape is not None and len(cids):
+            # edge_min_w_px: a box clipped to a sliver at the image's side edge has left the view
+            w_img = float(snap.shape[1])
+            ok = ~((boxes[:, 2] < p.edge_min_w_px) & ((boxes[:, 0] <= 0.0) | (boxes[:, 0] + boxes[:, 2] >= w_img)))
+            cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
+            if keep_c is None:
+                keep_c = ok
+            else:
                 keep_c = (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)[ok]
         if p.foot_open_px > 0 and image is not None and self._horizon is not None and len(cids):
             # a cluster wholly inside the water margin with no open sea beside it: the foot of a coast
