@@ -2911,7 +2911,17 @@ class ClusterParams:
     are known takes none whose appearance distance exceeds the smallest of them by more than this margin
     (the relink's pairs go nearest first; the gate does not see that a boat has moved ~200 px in 25 s out
     of view at the pan's return, its look does).  On ``pan`` 21 and 93 the nearer lost identity looked
-    0.70 / 1.16 away, the right one 0.05 / 0.39."""
+    0.70 / 1.16 away, the right one 0.05 / 0.39.
+
+    ``relink_hold_s`` (session 27, h32; seconds; 0: off; meant with ``relink_retry_s``): a cluster first
+    seen less than this long ago, still under its own identity, that has a lost identity in view within
+    its relink gate (``relink_px`` + ``relink_px_per_s`` per second lost) but was not given one this frame
+    (refused by the size, appearance or another check) stays tentative: it is not reported, even past
+    ``confirm_s``.  Its own identity is then never shown while ``relink_retry_s`` may still rename it to
+    the lost one; once it is older than this, or no lost identity has it in its gate, it is reported as
+    usual.  Under W ``relink_retry_s`` renamed clusters reported for 0.1-0.3 s (2 switches where the
+    defaults had 0 or 1: sim ``pan`` 108 at 29.4 s the motorboat's new 86 x 16 px cluster, confirmed as
+    139, renamed to the boat's lost 7 at 29.5 s; 35.3 s the rib's)."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3128,6 +3138,7 @@ class ClusterParams:
     relink_retry_s: float = 0.0
     edge_min_w_px: float = 0.0
     relink_app_margin: float = 0.0
+    relink_hold_s: float = 0.0
 
 
 class FeatureClusterer:
@@ -3180,6 +3191,7 @@ class FeatureClusterer:
         self._trail_last: dict = {}  # cluster identity -> (time, side) of its last trailing side set by its members (wake_hold_s)
         self._wcore_last: dict = {}  # cluster identity -> its grown box last frame (wake_core_iou)
         self._wcore_last_t = -1  # frame index of _wcore_last
+        self._hold: set = set()  # relink_hold_s: identities held tentative this frame
         self._size_scale = 1.0  # the camera's scale now relative to the reference (product of the homographies')
         self._disp_ring: collections.deque = collections.deque()  # (time, slots, ids, scene positions) per frame
         self._disp_c = np.eye(3)  # this frame's image -> the scene reference (box_disp_s)
@@ -3769,6 +3781,7 @@ class FeatureClusterer:
         ``relink_predict_s``.  When an identity is lost while a younger cluster overlaps its
         last box by ``relink_overlap`` of the smaller box, that cluster takes it
         (:meth:`_hand_over`)."""
+        self._hold = set()  # relink_hold_s: identities held tentative this frame
         p = self.params
         t = snap.t_s
         dt = float(getattr(snap, "dt_s", p.frame_interval_s))
@@ -3871,6 +3884,7 @@ class FeatureClusterer:
                      and t - self._birth.get(int(cids[i]), -np.inf) < p.relink_retry_s - 1e-9}
         far_new = self._far_side(boxes) if (new or retry) else None  # far_id_px: each cluster in the far strip
         app_d = {}  # relink_app_margin: (new cluster, lost identity) -> appearance distance, where known
+        size_ref = set()  # relink_hold_s: clusters within the gate of a lost identity in view
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -3890,6 +3904,8 @@ class FeatureClusterer:
                         d, gate, lb = d_alt, np.inf, alt[1]
                 if view_wh is not None and not self._in_view(k, lb, view_wh):
                     continue  # session 22: its boat is out of the view
+                if p.relink_hold_s > 0 and d <= gate:
+                    size_ref.add(i)  # relink_hold_s: a lost identity in view within its gate
                 if p.relink_dy_h > 0 and (not p.relink_dy_same_zoom
                                           or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05):
                     # session 22: a boat keeps its waterline's row (its range) through a loss
@@ -3977,6 +3993,10 @@ class FeatureClusterer:
             self._lost_dir.pop(k, None)
             self._lost_alt.pop(k, None)
             self._lost_alt_dir.pop(k, None)
+        self._hold = set()
+        if p.relink_hold_s > 0:  # session 27 (h32): young fragments a lost identity may take later stay tentative
+            self._hold = {int(rep[i]) for i in size_ref if i not in done and int(rep[i]) == int(cids[i])
+                          and t - self._birth.get(int(cids[i]), t) < p.relink_hold_s - 1e-9}
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
         # duplicate falls back to its own identity, or to a new one when that is taken too (a
         # cluster identity that came back, e.g. after an unmerge, while another cluster carries it)
@@ -4828,6 +4848,10 @@ class FeatureClusterer:
             births = np.array([self.graph.birth_s.get(int(c), t) for c in cids])
         ages = t - births
         states = np.where(ages >= p.confirm_s - 1e-9, int(TrackState.CONFIRMED), int(TrackState.TENTATIVE))
+        if p.relink_hold_s > 0 and p.relink_s > 0 and self._hold and len(ids):
+            # relink_hold_s (session 27, h32): held young fragments are not reported yet
+            states = np.where(np.isin(np.asarray(ids, dtype=np.int64), np.fromiter(self._hold, np.int64)),
+                              int(TrackState.TENTATIVE), states)
         scores = 1.0 - np.exp(-count / 5.0)
         dets = Detections(t, fi, boxes, scores, self.source, self.camera_id)
         tracks = Tracks(t, fi, ids, boxes, vel, states, ages, self.source, self.camera_id)
