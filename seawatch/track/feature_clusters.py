@@ -2911,7 +2911,13 @@ class ClusterParams:
     are known takes none whose appearance distance exceeds the smallest of them by more than this margin
     (the relink's pairs go nearest first; the gate does not see that a boat has moved ~200 px in 25 s out
     of view at the pan's return, its look does).  On ``pan`` 21 and 93 the nearer lost identity looked
-    0.70 / 1.16 away, the right one 0.05 / 0.39."""
+    0.70 / 1.16 away, the right one 0.05 / 0.39.
+
+    Session 27 (helper h31, round 1's steps on infrared): ``coast_dup_ir``, ``lost_dup_ir``,
+    ``relink_area_at_loss_ir``, ``relink_retry_ir``, ``relink_app_margin_ir`` (True: the step acts on
+    infrared frames too, as before; False: off on infrared frames, i.e. ``coast_dup_iou``,
+    ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
+    only, in the style of ``wake_track_ir``).  They change nothing while their step is off."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3128,6 +3134,11 @@ class ClusterParams:
     relink_retry_s: float = 0.0
     edge_min_w_px: float = 0.0
     relink_app_margin: float = 0.0
+    coast_dup_ir: bool = True
+    lost_dup_ir: bool = True
+    relink_area_at_loss_ir: bool = True
+    relink_retry_ir: bool = True
+    relink_app_margin_ir: bool = True
 
 
 class FeatureClusterer:
@@ -3865,7 +3876,8 @@ class FeatureClusterer:
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
         retry = set()
-        if p.relink_retry_s > 0:  # session 27 (h29): young clusters under their own identity, not yet confirmed
+        # session 27 (h29): young clusters under their own identity, not yet confirmed (h31: relink_retry_ir)
+        if p.relink_retry_s > 0 and (p.relink_retry_ir or not self._ir):
             seen = set(new)
             retry = {i for i in range(len(cids)) if i not in seen and int(rep[i]) == int(cids[i])
                      and t - self._birth.get(int(cids[i]), -np.inf) < p.relink_retry_s - 1e-9}
@@ -3922,7 +3934,7 @@ class FeatureClusterer:
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
                 a_ref = lb[2] * lb[3]
-                if p.relink_area_at_loss and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
+                if p.relink_area_at_loss and (p.relink_area_at_loss_ir or not self._ir) and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
                     a0, z0 = self._lost_a0[k]
                     a_ref = min(a_ref, a0 * (self._zoom / max(z0, 1e-6)) ** 2)
                 if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * a_ref
@@ -3947,7 +3959,7 @@ class FeatureClusterer:
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
-        if p.relink_app_margin > 0 and len(app_d) > 1:
+        if p.relink_app_margin > 0 and (p.relink_app_margin_ir or not self._ir) and len(app_d) > 1:
             # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
             # more than the margin further away than the best-looking one are not its candidates
             best = {}
@@ -4127,7 +4139,7 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
                         self._lost_alt.pop(r, None)
                         self._lost_alt_dir.pop(r, None)
-        if p.lost_dup_iou > 0:  # session 27 (h29): a young lost identity beside an older lost one
+        if p.lost_dup_iou > 0 and (p.lost_dup_ir or not self._ir):  # session 27 (h29): a young lost identity beside an older lost one
             self._lost_dup(t)
         if p.relink_side_h_ratio > 0 and getattr(snap, "shape", None) is not None:
             # relink_side_h_ratio: each reported identity's last heights clear of the image's side edges
@@ -5068,7 +5080,7 @@ class FeatureClusterer:
             ok[sel[live]] = False
             why[sel[live]] = "live"
             sel, b = sel[~live], b[~live]
-        if p.coast_dup_iou > 0 and len(sel) > 1:
+        if p.coast_dup_iou > 0 and (p.coast_dup_ir or not self._ir) and len(sel) > 1:
             tl = np.array([self._lost[int(ids[j])][0] for j in sel], np.float64)
             if p.coast_dup_seen:  # reported last first (a coast's last report for this loss, else the loss)
                 seen = np.array([max(tl[i], self._coast_rep.get(int(ids[j]), (None, 0.0))[1])
