@@ -61,3 +61,18 @@ def test_hold_ends_with_its_window_and_needs_a_lost_identity_in_the_gate():
     far = [[300, 200], [302, 201]]  # B far outside A's gate: not held
     out, a_id, b_id = _run(tiny=far, relink_hold_s=1.0, relink_px=5.0, relink_px_per_s=0.0)
     assert out[0.4] == [(b_id, int(TrackState.CONFIRMED))]
+
+
+def test_hold_follows_the_retry_switch_on_infrared(monkeypatch):
+    """Without relink_retry_s on infrared (relink_retry_ir off) nothing could rename the held cluster:
+    no hold there; on visible frames the same settings hold it."""
+    import test_sf_h31 as h31
+
+    out, a_id, b_id = _run(relink_hold_s=1.0, relink_retry_ir=False)
+    assert out[0.4] == [(b_id, int(TrackState.TENTATIVE))]  # visible frames: held as before
+    monkeypatch.setitem(globals(), "FeatureClusterer", h31._IrClusterer)
+    out, a_id, b_id = _run(relink_hold_s=1.0, relink_retry_ir=False)
+    assert out[0.4] == [(b_id, int(TrackState.CONFIRMED))]  # infrared, retry off: reported
+    assert out[0.5][0][0] == b_id  # and never renamed
+    out, a_id, b_id = _run(relink_hold_s=1.0)
+    assert out[0.4] == [(b_id, int(TrackState.TENTATIVE))]  # infrared, retry on: held

@@ -2919,9 +2919,16 @@ class ClusterParams:
     (refused by the size, appearance or another check) stays tentative: it is not reported, even past
     ``confirm_s``.  Its own identity is then never shown while ``relink_retry_s`` may still rename it to
     the lost one; once it is older than this, or no lost identity has it in its gate, it is reported as
-    usual.  Under W ``relink_retry_s`` renamed clusters reported for 0.1-0.3 s (2 switches where the
+    usual.  It acts only where ``relink_retry_s`` does (not on infrared frames with ``relink_retry_ir`` off):
+    without the retry a hold would only delay the report.  Under W ``relink_retry_s`` renamed clusters reported for 0.1-0.3 s (2 switches where the
     defaults had 0 or 1: sim ``pan`` 108 at 29.4 s the motorboat's new 86 x 16 px cluster, confirmed as
-    139, renamed to the boat's lost 7 at 29.5 s; 35.3 s the rib's)."""
+    139, renamed to the boat's lost 7 at 29.5 s; 35.3 s the rib's).
+
+    Session 27 (helper h31, round 1's steps on infrared): ``coast_dup_ir``, ``lost_dup_ir``,
+    ``relink_area_at_loss_ir``, ``relink_retry_ir``, ``relink_app_margin_ir`` (True: the step acts on
+    infrared frames too, as before; False: off on infrared frames, i.e. ``coast_dup_iou``,
+    ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
+    only, in the style of ``wake_track_ir``).  They change nothing while their step is off."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3139,6 +3146,11 @@ class ClusterParams:
     edge_min_w_px: float = 0.0
     relink_app_margin: float = 0.0
     relink_hold_s: float = 0.0
+    coast_dup_ir: bool = True
+    lost_dup_ir: bool = True
+    relink_area_at_loss_ir: bool = True
+    relink_retry_ir: bool = True
+    relink_app_margin_ir: bool = True
 
 
 class FeatureClusterer:
@@ -3878,7 +3890,9 @@ class FeatureClusterer:
         view_wh = (None if p.relink_view_px <= 0 or getattr(snap, "shape", None) is None
                    else (float(snap.shape[1]), float(snap.shape[0])))
         retry = set()
-        if p.relink_retry_s > 0:  # session 27 (h29): young clusters under their own identity, not yet confirmed
+        retry_on = p.relink_retry_s > 0 and (p.relink_retry_ir or not self._ir)
+        # session 27 (h29): young clusters under their own identity, not yet confirmed (h31: relink_retry_ir)
+        if retry_on:
             seen = set(new)
             retry = {i for i in range(len(cids)) if i not in seen and int(rep[i]) == int(cids[i])
                      and t - self._birth.get(int(cids[i]), -np.inf) < p.relink_retry_s - 1e-9}
@@ -3938,7 +3952,7 @@ class FeatureClusterer:
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
                         continue
                 a_ref = lb[2] * lb[3]
-                if p.relink_area_at_loss and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
+                if p.relink_area_at_loss and (p.relink_area_at_loss_ir or not self._ir) and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
                     a0, z0 = self._lost_a0[k]
                     a_ref = min(a_ref, a0 * (self._zoom / max(z0, 1e-6)) ** 2)
                 if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * a_ref
@@ -3963,7 +3977,7 @@ class FeatureClusterer:
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
-        if p.relink_app_margin > 0 and len(app_d) > 1:
+        if p.relink_app_margin > 0 and (p.relink_app_margin_ir or not self._ir) and len(app_d) > 1:
             # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
             # more than the margin further away than the best-looking one are not its candidates
             best = {}
@@ -3994,7 +4008,8 @@ class FeatureClusterer:
             self._lost_alt.pop(k, None)
             self._lost_alt_dir.pop(k, None)
         self._hold = set()
-        if p.relink_hold_s > 0:  # session 27 (h32): young fragments a lost identity may take later stay tentative
+        if p.relink_hold_s > 0 and retry_on:
+            # session 27 (h32): young fragments a lost identity may take later (relink_retry_s) stay tentative
             self._hold = {int(rep[i]) for i in size_ref if i not in done and int(rep[i]) == int(cids[i])
                           and t - self._birth.get(int(cids[i]), t) < p.relink_hold_s - 1e-9}
         # one reported identity per frame: a cluster reported under its own identity keeps it; a
@@ -4147,7 +4162,7 @@ class FeatureClusterer:
                         self._lost_dir.pop(r, None)
                         self._lost_alt.pop(r, None)
                         self._lost_alt_dir.pop(r, None)
-        if p.lost_dup_iou > 0:  # session 27 (h29): a young lost identity beside an older lost one
+        if p.lost_dup_iou > 0 and (p.lost_dup_ir or not self._ir):  # session 27 (h29): a young lost identity beside an older lost one
             self._lost_dup(t)
         if p.relink_side_h_ratio > 0 and getattr(snap, "shape", None) is not None:
             # relink_side_h_ratio: each reported identity's last heights clear of the image's side edges
@@ -5092,7 +5107,7 @@ class FeatureClusterer:
             ok[sel[live]] = False
             why[sel[live]] = "live"
             sel, b = sel[~live], b[~live]
-        if p.coast_dup_iou > 0 and len(sel) > 1:
+        if p.coast_dup_iou > 0 and (p.coast_dup_ir or not self._ir) and len(sel) > 1:
             tl = np.array([self._lost[int(ids[j])][0] for j in sel], np.float64)
             if p.coast_dup_seen:  # reported last first (a coast's last report for this loss, else the loss)
                 seen = np.array([max(tl[i], self._coast_rep.get(int(ids[j]), (None, 0.0))[1])

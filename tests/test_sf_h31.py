@@ -1,0 +1,73 @@
+"""Session 27 (issue #8, helper h31: round 1's steps on infrared): ``coast_dup_ir``, ``lost_dup_ir``,
+``relink_area_at_loss_ir``, ``relink_retry_ir``, ``relink_app_margin_ir`` (True by default: the step acts
+on infrared frames too, as before; False: the step is off on infrared frames, on visible ones unchanged).
+Reuses helper h29's synthetic runs, with every frame marked infrared."""
+
+import pytest
+
+import test_sf_h29 as h29
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+
+
+class _IrClusterer(FeatureClusterer):
+    """Every frame infrared (``update(..., ir=True)``)."""
+
+    def update(self, *a, **k):
+        k["ir"] = True
+        return super().update(*a, **k)
+
+
+@pytest.fixture
+def ir(monkeypatch):
+    monkeypatch.setattr(h29, "FeatureClusterer", _IrClusterer)
+
+
+def test_defaults_keep_the_steps_on_infrared():
+    d = ClusterParams()
+    assert d.coast_dup_ir is True and d.lost_dup_ir is True and d.relink_area_at_loss_ir is True
+    assert d.relink_retry_ir is True and d.relink_app_margin_ir is True
+    assert d.coast_dup_iou == 0.0 and d.lost_dup_iou == 0.0 and d.relink_retry_s == 0.0
+    assert d.relink_area_at_loss is False and d.relink_app_margin == 0.0
+
+
+def test_lost_dup_on_infrared_by_default_and_off_with_the_switch(ir):
+    got, a_id, b_id, c = h29._dup_run(lost_dup_iou=0.2)
+    assert got == a_id and c._alias.get(b_id) == a_id  # acts on infrared frames (default)
+    got, a_id, b_id, c = h29._dup_run(lost_dup_iou=0.2, lost_dup_ir=False)
+    assert got == b_id and a_id in c._lost  # as with the step off
+
+
+def test_lost_dup_switch_leaves_visible_frames():
+    got, a_id, b_id, c = h29._dup_run(lost_dup_iou=0.2, lost_dup_ir=False)
+    assert got == a_id
+
+
+def test_area_at_loss_switch(ir):
+    got, a_id = h29._area_run(relink_area_at_loss=True)
+    assert got == a_id
+    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=False)
+    assert got != a_id
+
+
+def test_retry_switch(ir):
+    got, a_id, b_id, c = h29._retry_run(relink_retry_s=1.0)
+    assert got == a_id
+    got, a_id, b_id, c = h29._retry_run(relink_retry_s=1.0, relink_retry_ir=False)
+    assert got == b_id and a_id in c._lost
+
+
+def test_retry_switch_leaves_visible_frames():
+    got, a_id, b_id, c = h29._retry_run(relink_retry_s=1.0, relink_retry_ir=False)
+    assert got == a_id
+
+
+def test_coast_dup_switch():
+    import test_sf_h28 as h28
+    c = h28._clusterer(coast_dup_iou=0.5)
+    c._ir = True
+    assert h28._coast(c, 7.0) == [9, 30]  # acts on infrared frames (default)
+    c = h28._clusterer(coast_dup_iou=0.5, coast_dup_ir=False)
+    c._ir = True
+    assert h28._coast(c, 7.0) == [9, 17, 30]  # off on infrared frames
+    c = h28._clusterer(coast_dup_iou=0.5, coast_dup_ir=False)
+    assert h28._coast(c, 7.0) == [9, 30]  # visible frames unchanged
