@@ -10,6 +10,7 @@ off by default.
   older identity does not rename the cluster it joins)."""
 
 import numpy as np
+import pytest
 
 from _feature_snap import snap
 from seawatch.track.feature_clusters import (
@@ -100,8 +101,11 @@ def test_clusterer_off_gives_the_passing_boat_the_small_clusters_older_identity(
     assert all(o == [1] for o in out[1:])  # one report, the oldest identity
 
 
-def test_clusterer_on_keeps_the_large_clusters_identity_and_no_hand_over():
-    out = _clusterer_run(merge_id_dv_px_s=3.0)
+@pytest.mark.parametrize("retry_s", [0.0, 1.0])
+def test_clusterer_on_keeps_the_large_clusters_identity_and_no_hand_over(retry_s):
+    # session 28: relink_retry_s (1 s by default) must not rename the young large cluster to the small
+    # cluster's identity, joined into its report while moving otherwise (merge_id_dv_px_s)
+    out = _clusterer_run(merge_id_dv_px_s=3.0, relink_retry_s=retry_s)
     assert out[0] == [1]
     big = out[1]
     assert len(big) == 1 and big != [1]

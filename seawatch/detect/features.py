@@ -696,11 +696,11 @@ class StableFeatureExtractor:
         redetect_threshold: int = 0,
         redetect_px: float = 3.0,
         redetect_min_confidence: int = 2,
-        far_px: float = 0.0,
+        far_px: float = 12.0,
         far_upscale: float = 3.0,
-        far_threshold: int = 0,
-        far_max_keypoints: int = 60,
-        far_skip_ir: bool = False,
+        far_threshold: int = 10,
+        far_max_keypoints: int = 30,
+        far_skip_ir: bool = True,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")
