@@ -2929,7 +2929,17 @@ class ClusterParams:
     ``relink_area_at_loss_ir``, ``relink_retry_ir``, ``relink_app_margin_ir`` (True: the step acts on
     infrared frames too, as before; False: off on infrared frames, i.e. ``coast_dup_iou``,
     ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
-    only, in the style of ``wake_track_ir``).  They change nothing while their step is off."""
+    only, in the style of ``wake_track_ir``).  They change nothing while their step is off.
+
+    Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
+    the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
+    0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
+    ``coast_edge_horizon`` (``coast_edge_horizon_h`` 1.5, ``coast_edge_horizon_contrast`` 5),
+    ``coast_dup_iou`` 0.5 with ``coast_dup_seen``; the far strip's cuts ``far_cut_px`` 12 and
+    ``far_cut_deep_px`` 24 (with the extractor's far-water pass, ``StableFeatureExtractor(far_px=12)``); and
+    the identity steps ``lost_dup_iou`` 0.3, ``relink_area_at_loss``, ``relink_retry_s`` 1, ``relink_app_margin``
+    0.5 and ``relink_hold_s`` 1, session 27's five on visible frames only (their ``*_ir`` switches False).
+    Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
     alpha: float = 3.0
