@@ -2892,8 +2892,9 @@ class ClusterParams:
     to 76 x 14 px, and its new 15 x 9 px cluster was refused the identity).  ``relink_retry_s``
     (0: off; seconds): a cluster first seen less than this long ago and still under its own identity
     is offered the lost identities again in each frame, as a new cluster is (with every check), but
-    only those lost before it was first seen, and not one joined into its report while moving otherwise
-    (``merge_id_dv_px_s``'s other boat, session 28); its own identity is then retired, not lost.  Below
+    only those lost before it was first seen; its own identity is then retired, not lost.  It may take
+    the identity of a cluster joined into its report while moving otherwise, which ``merge_id_dv_px_s``
+    does not hand over (session 28: skipping those added 3 switches on ``pan`` 111-142, so it is not done).  Below
     ``confirm_s`` its own identity was never reported.  A boat's new cluster is often born on a few
     features, a box too small for ``relink_min_area``, and grows in the next frames (on sim ``pan`` 82
     at 15.0 s the motorboat's new 9 x 4 px cluster beside its lost 35 x 9 px box, reported under its
@@ -3914,10 +3915,8 @@ class FeatureClusterer:
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
                     continue
-                if i in retry and (tl > self._birth[int(cids[i])] + 1e-9 or k in self._joined_apart):
-                    # relink_retry_s: only an identity lost before the young cluster was first seen, and not
-                    # one joined into a report moving otherwise (merge_id_dv_px_s: another boat, not handed over)
-                    continue
+                if i in retry and tl > self._birth[int(cids[i])] + 1e-9:
+                    continue  # relink_retry_s: only an identity lost before the young cluster was first seen
                 d = gap_px(boxes[i], lb)
                 rate = p.relink_px_per_s
                 if p.relink_own_speed_k > 0 and vl is not None and np.all(np.isfinite(vl)):
