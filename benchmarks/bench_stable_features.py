@@ -94,7 +94,7 @@ def _record_all(ctx, dataset, method, s, **extra):
 def _paper_only(fps):
     """The tracker with the clustering and output additions turned off (no box growing, contrast
     check, merge of overlapping clusters, velocity gate on merges, identity relinking, guided matching, the
-    box around the members moving with the cluster, no duplicate features, no drop of boxes many times wider than tall, report split, or use of the horizon; the stop-15 waterline, wake and superstructure steps act inside the box growing, which is off), for the before/after comparison.  Not the paper exactly: the front end's deviations
+    box around the members moving with the cluster, no duplicate features, no far-water pass (on since session 28), no drop of boxes many times wider than tall, report split, or use of the horizon; the stop-15 waterline, wake and superstructure steps act inside the box growing, which is off), for the before/after comparison.  Not the paper exactly: the front end's deviations
     stay (similarity camera fit instead of the mean velocity, Lucas-Kanade sub-pixel positions,
     0.4 s velocity baseline, 1.5 px/s speed floor, weight cap 15, confidence cap 10, 2 s label
     memory, 0.4 s confirmation, keypoint priority near tracked features; docs/stable_features.md,
@@ -102,7 +102,7 @@ def _paper_only(fps):
     from seawatch.detect.features import StableFeatureExtractor
     from seawatch.track.feature_clusters import ClusterParams, StableFeatureTracker
 
-    return StableFeatureTracker(StableFeatureExtractor(nominal_fps=fps, guided_px=0.0, dedup_px=0.0),
+    return StableFeatureTracker(StableFeatureExtractor(nominal_fps=fps, guided_px=0.0, dedup_px=0.0, far_px=0.0),
                                 ClusterParams(grow_box=0.0, min_contrast=0.0, merge_overlap=0.0, relink_s=0.0,
                                               merge_dv_px_s=0.0, box_dv_px_s=0.0, merge_keep=0.0,
                                               sky_margin_px=0.0, max_aspect=0.0, split_dv_px_s=0.0),

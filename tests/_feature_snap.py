@@ -55,8 +55,11 @@ def shift(dx):
     return h
 
 
-# the coast tests' base: no confirmation, relink 10 s, coast 5 s, session 24's second looks off
-COAST_BASE = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0)
+# the coast tests' base: no confirmation, relink 10 s, coast 5 s, session 24's second looks off; the edge
+# look's steps of sessions 25-26 (on by default since session 28) named off here: the tests turn them on
+COAST_BASE = dict(confirm_s=0.0, relink_s=10.0, coast_s=5.0, coast_look_up=0.0, coast_look_ahead=0.0,
+                  coast_edge_seen=False, coast_edge_horizon=False, coast_edge_horizon_contrast=0.0,
+                  coast_edge_horizon_h=0.0)
 
 
 def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240), hull=(100, 60, 140, 70), **kw):
@@ -65,8 +68,8 @@ def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240)
     by each of ``moves`` (px along x, one per frame); ``boats`` (one per frame, default all True):
     whether the hull is drawn; ``dys`` (``dxs``): how many px below its rows (right of where the camera
     carried it) it is drawn, the boat's own motion, which the camera does not give.  ``kw``: fields of
-    ``ClusterParams`` over the base (no confirmation, relink 10 s, coast 5 s, session 24's second looks
-    off).  Returns the clusterer, the hull's identity and the tracks of each frame after the loss."""
+    ``ClusterParams`` over the base (``COAST_BASE``: no confirmation, relink 10 s, coast 5 s, session 24's
+    second looks and the edge look's steps of sessions 25-26 off).  Returns the clusterer, the hull's identity and the tracks of each frame after the loss."""
     from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
     c = FeatureClusterer(ClusterParams(**{**COAST_BASE, **kw}))

@@ -33,6 +33,8 @@ def run(**kw):
     left) are seen, lost together for three frames, and a cluster comes back on the bright boat at
     x 114-122: nearer A's last box (gap 0 px) than B's (gap 4 px).  Returns A's and B's identities,
     the returning cluster's identity, the tracks of every frame and the clusterer."""
+    # relink_app_margin: on by default since session 28; named off here: the tests isolate relink_appearance
+    kw = {"relink_app_margin": 0.0, **kw}
     c = FeatureClusterer(ClusterParams(confirm_s=0.0, relink_s=10.0, relink_px=30.0, grow_box=0.0, **kw))
     va, vb = [[20, 0]] * 2, [[-20, 0]] * 2
     img0 = sea(0, [(99, 111, DARK), (129, 141, BRIGHT)])

@@ -2,7 +2,8 @@
 (down to ``far_px`` below the horizon) are searched for keypoints on a copy upscaled
 ``far_upscale`` (3) times with their own budget, so that the fine structure of a far ship (1-px
 marks, below CenSurE's smallest filter at the band's 2x) gives keypoints; the band below keeps its
-2x pass unchanged, and ``far_px`` 0 (the default) is the old behaviour."""
+2x pass unchanged, and ``far_px`` 0 (off) is the old behaviour.  On by default since session 28
+(far_px 12, far_threshold 10, far_max_keypoints 30, far_skip_ir True); the tests name their settings."""
 
 import cv2
 import numpy as np
@@ -47,16 +48,16 @@ def _on_ship(snap):
 
 
 def test_the_far_pass_finds_the_far_ships_fine_structure_and_makes_it_stable():
-    off = _run()
-    on = _run(far_px=12)
+    off = _run(far_px=0.0)  # on by default since session 28; named off here
+    on = _run(far_px=12, far_threshold=0, far_max_keypoints=60)  # H21's settings
     assert _on_ship(off).sum() <= 3
     assert _on_ship(on).sum() >= 10
     assert (_on_ship(on) & on.stable).sum() >= 10
 
 
 def test_the_band_below_the_far_rows_is_unchanged():
-    off = _run()
-    on = _run(far_px=12)
+    off = _run(far_px=0.0)
+    on = _run(far_px=12, far_threshold=0, far_max_keypoints=60)
     low_off = off.xy[off.xy[:, 1] > 130]
     low_on = on.xy[on.xy[:, 1] > 130]
     assert len(low_off) >= 8
@@ -65,7 +66,7 @@ def test_the_band_below_the_far_rows_is_unchanged():
 
 
 def test_far_px_zero_is_the_old_behaviour():
-    a = _run(n=3)
+    a = _run(n=3, far_px=0.0, far_threshold=0, far_max_keypoints=60)  # the old defaults
     b = _run(n=3, far_px=0.0, far_upscale=4.0, far_threshold=2, far_max_keypoints=500)
     assert np.array_equal(a.ids, b.ids) and np.array_equal(a.xy, b.xy)
     assert np.array_equal(a.confidence, b.confidence)
@@ -73,7 +74,7 @@ def test_far_px_zero_is_the_old_behaviour():
 
 def test_the_far_budget_caps_the_far_rows_keypoints():
     small = _run(n=1, far_px=12, far_max_keypoints=4)
-    big = _run(n=1, far_px=12)
+    big = _run(n=1, far_px=12, far_threshold=0, far_max_keypoints=60)  # H21's budget (60)
     assert _on_ship(small).sum() <= 4 < _on_ship(big).sum()
 
 
@@ -82,3 +83,12 @@ def test_bad_far_settings_are_refused():
         StableFeatureExtractor(far_px=-1.0)
     with pytest.raises(ValueError):
         StableFeatureExtractor(far_px=10.0, far_upscale=0.5)
+
+
+def test_the_far_pass_is_on_by_default_since_session_28():
+    import inspect
+
+    ext = StableFeatureExtractor()
+    assert (ext.far_px, ext.far_upscale, ext.far_max_keypoints, ext.far_skip_ir) == (12.0, 3.0, 30, True)
+    assert inspect.signature(StableFeatureExtractor).parameters["far_threshold"].default == 10  # not kept
+    assert _on_ship(_run()).sum() >= 10  # the session 28 defaults find the far ship's marks too

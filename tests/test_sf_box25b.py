@@ -63,5 +63,6 @@ def test_tall_columns_reference_range():
     assert F._tall_columns(m, 0.5, False, 40, 50) == (0, 19)  # none under the core: all count
 
 
-def test_wake_core_off_by_default():
-    assert ClusterParams().wake_core == 0.0
+def test_wake_core_on_by_default_since_session_28_on_visible_frames():
+    p = ClusterParams()
+    assert p.wake_core == 0.5 and p.wake_core_ir == 0.0

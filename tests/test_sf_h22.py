@@ -29,6 +29,8 @@ def _snap(k, pts, v=(12.0, 0.0), seed=0):
 
 
 def _params(**kw):
+    # far_cut_px, far_cut_deep_px: on by default since session 28; named off here (tests turn them on)
+    kw = {"far_cut_px": 0.0, "far_cut_deep_px": 0.0, **kw}
     return ClusterParams(relink_s=0.0, coast_s=0.0, confirm_s=0.0, known_min_speed_px_s=0.0,
                          grow_box=0.0, **kw)
 
@@ -47,9 +49,9 @@ BOAT = [(150.0, 16.0), (162.0, 17.0), (156.0, 22.0), (170.0, 24.0), (145.0, 26.0
 FAR = [(152.0, 2.0), (166.0, 3.0)]
 
 
-def test_off_by_default_and_joined_when_off():
+def test_on_by_default_since_session_28_and_joined_when_off():
     d = ClusterParams()
-    assert d.far_cut_px == 0.0
+    assert (d.far_cut_px, d.far_cut_gap_px, d.far_cut_deep_px, d.far_cut_deep_gap_px) == (12.0, 6.0, 24.0, 20.0)
     b = _boxes(_params(), BOAT + FAR)
     top = b[:, 1].min()
     assert top <= ROW + 3.0  # the far strip's blobs stretch the boat's box up to them
@@ -102,6 +104,8 @@ def _far_scene():
 def _ext_run(ir, n=4, **kw):
     from seawatch.detect.features import StableFeatureExtractor
 
+    # the far pass: on by default since session 28; named off here with H22's settings (tests turn it on)
+    kw = {"far_px": 0.0, "far_skip_ir": False, "far_threshold": 0, "far_max_keypoints": 60, **kw}
     ext = StableFeatureExtractor(nominal_fps=25.0, **kw)
     for f in range(n):
         snap = ext.process(_far_scene(), f / 25.0, horizon=Level(ROW), ir=ir)
@@ -112,10 +116,10 @@ def _same(a, b):
     return np.array_equal(a.ids, b.ids) and np.array_equal(a.xy, b.xy)
 
 
-def test_far_skip_ir_off_by_default_and_on_visible_frames():
+def test_far_skip_ir_on_by_default_since_session_28_and_visible_frames_keep_the_far_pass():
     from seawatch.detect.features import StableFeatureExtractor
 
-    assert StableFeatureExtractor().far_skip_ir is False
+    assert StableFeatureExtractor().far_skip_ir is True
     on = _ext_run(False, far_px=12)
     assert not _same(on, _ext_run(False))  # the far pass changes the far rows' keypoints
     assert _same(_ext_run(True, far_px=12), on)  # off: the ir flag changes nothing

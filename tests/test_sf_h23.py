@@ -1,6 +1,7 @@
 """Session 26 (H23, issue #8): the rib's box.  ``wake_front``: the wake cut's reference height from
 the columns at the object's leading end (a rib whose features lie on its foam); ``wake_track_s`` /
-``wake_hold_s``: a trailing side where the members are too slow.  All off by default."""
+``wake_hold_s``: a trailing side where the members are too slow.  Off by default until session 28; since then ``wake_front``
+0.3 and ``wake_hold_s`` 1 are on (``wake_core_ir`` 0: visible frames only), ``wake_track_s`` off."""
 
 from __future__ import annotations
 
@@ -76,9 +77,11 @@ def test_track_velocity_net_of_the_camera():
     assert np.isnan(fc._track_vx(_snap(2.0, 100), cids)[0])
 
 
-def test_off_by_default():
+def test_defaults_since_session_28():
     p = ClusterParams()
-    assert p.wake_track_s == 0 and p.wake_hold_s == 0 and p.wake_front == 0 and p.wake_core_ir is None
+    assert p.wake_track_s == 0 and p.wake_hold_s == 1.0 and p.wake_front == 0.3 and p.wake_core_ir == 0.0
+    assert p.wake_track_ir is False
+    # grow_boxes' own default keeps wake_front off
     img = _rib_scene()
     core = [136.0, 65.0, 18.0, 2.0]
     assert np.array_equal(_grow(img, core, wake_front=0.0), _grow(img, core))

@@ -61,10 +61,10 @@ MOVES, BOATS = [0.0, -150.0, 0.0, 0.0, 20.0], [True, False, False, False, True]
 DYS, ROWS = [0, 0, 0, 0, 15], [40, 40, 55, 55, 55]
 
 
-def test_off_by_default_and_the_boat_below_its_rows_is_not_seen():
+def test_on_by_default_since_session_28_and_off_the_boat_below_its_rows_is_not_seen():
     p = ClusterParams()
-    assert p.coast_edge_horizon is False and p.coast_edge_clear == 0.0 and p.coast_edge_horizon_contrast == 0.0
-    c, ident, out = run(MOVES, BOATS, DYS, ROWS, coast_edge_seen=True)
+    assert p.coast_edge_horizon is True and p.coast_edge_clear == 0.0 and p.coast_edge_horizon_contrast == 5.0
+    c, ident, out = run(MOVES, BOATS, DYS, ROWS, coast_edge_seen=True, coast_edge_horizon=False)
     assert out[0].ids.tolist() == [ident]  # the coast saw it in view
     assert all(len(tr) == 0 for tr in out[1:])
     assert [e[3] for e in c.coast_log][-1] == "outside"

@@ -2,7 +2,7 @@
 ``ClusterParams.far_id_px`` (0: off) an identity does not pass between the far strip (a box whose
 bottom lies less than ``far_id_px`` under the horizon, or above it) and the water below it, neither
 by the relink nor by the hand-over; ``far_id_ir`` (False) extends it to infrared frames.
-``far_cut_deep_px`` (0: off) with ``far_cut_deep_gap_px``: a deeper band of H22's far cut with a longer
+``far_cut_deep_px`` (0: off; 24 by default since session 28) with ``far_cut_deep_gap_px``: a deeper band of H22's far cut with a longer
 gap (a boat 12-25 px under the horizon is not joined to a boat 35-50 px below it)."""
 
 from __future__ import annotations
@@ -92,9 +92,10 @@ def _edges():
 
 def test_far_cut_deep():
     xy, ei, ej = _edges()
-    # off by default: H22's cut alone (12 px, gap 6) drops only the tall far ship's edge 4-5
-    assert ClusterParams().far_cut_deep_px == 0
-    keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, ClusterParams(far_cut_px=12.0))
+    # on by default since session 28 (24 px, gap 20)
+    assert (ClusterParams().far_cut_deep_px, ClusterParams().far_cut_deep_gap_px) == (24.0, 20.0)
+    # off: H22's cut alone (12 px, gap 6) drops only the tall far ship's edge 4-5
+    keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, ClusterParams(far_cut_px=12.0, far_cut_deep_px=0.0))
     assert keep.tolist() == [True, True, True, False]
     # the deeper band (30 px, gap 20) drops the edges from the near-far boat to the boat below
     p = ClusterParams(far_cut_px=12.0, far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
@@ -104,6 +105,6 @@ def test_far_cut_deep():
     keep = _far_cut(xy, ei, ej, Level(ROW), 2.0, p)
     assert keep.tolist() == [True, False, True, False]  # (4-5: H22's gap 12 px at zoom 2)
     # the deep band alone (far_cut_px off): the tall far ship keeps its 16 px edge
-    p = ClusterParams(far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
+    p = ClusterParams(far_cut_px=0.0, far_cut_deep_px=30.0, far_cut_deep_gap_px=20.0)
     keep = _far_cut(xy, ei, ej, Level(ROW), 1.0, p)
     assert keep.tolist() == [True, False, False, True]

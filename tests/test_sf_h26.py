@@ -1,7 +1,7 @@
 """Session 26 round 2 (H26, issue #8): ``wake_core_iou``, a guard on ``wake_core``'s wake cut.  A cut
 with the core's (or the leading end's) reference at ``wake_core`` that moves a cluster's box off its grown
 box of the frame before (IoU under ``wake_core_iou``, carried by the camera) is undone: the box is grown
-again without ``wake_core``.  Off by default."""
+again without ``wake_core``.  On by default since session 28 (0.6)."""
 
 from __future__ import annotations
 
@@ -86,8 +86,9 @@ def test_guard_carries_the_box_before():
     assert out[0][0] + out[0][2] >= 132
 
 
-def test_off_by_default():
-    assert ClusterParams().wake_core_iou == 0
+def test_on_by_default_since_session_28():
+    p = ClusterParams()
+    assert p.wake_core_iou == 0.6 and p.wake_core_iou_cut == 0.0
 
 
 def test_cut_fraction_keeps_a_cut_that_takes_little_of_the_box_before():

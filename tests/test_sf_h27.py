@@ -11,9 +11,9 @@ from test_sf_h24 import BOATS, DYS, MOVES, ROWS, run
 ON = dict(coast_edge_seen=True, coast_edge_horizon=True)
 
 
-def test_off_by_default():
+def test_defaults_since_session_28():
     p = ClusterParams()
-    assert p.coast_edge_horizon_h == 0.0 and p.coast_edge_horizon_out == 0.0
+    assert p.coast_edge_horizon_h == 1.5 and p.coast_edge_horizon_out == 0.0
 
 
 def test_the_boat_of_the_recorded_size_is_still_found():
@@ -37,7 +37,7 @@ def _scaled_record(monkeypatch, f):
 
 def test_a_coast_whose_box_no_longer_has_the_recorded_size_gets_no_horizon_look(monkeypatch):
     _scaled_record(monkeypatch, 3.0)  # the coast's box is a third of the recorded boat's height
-    _, ident, out = run(MOVES, BOATS, DYS, ROWS, **ON)
+    _, ident, out = run(MOVES, BOATS, DYS, ROWS, coast_edge_horizon_h=0.0, **ON)
     assert out[4].ids.tolist() == [ident]  # without the guard the look is made (the record's height unused)
     _, ident, out = run(MOVES, BOATS, DYS, ROWS, coast_edge_horizon_h=1.5, **ON)
     assert len(out[4]) == 0

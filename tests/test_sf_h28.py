@@ -13,6 +13,8 @@ from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 
 def _clusterer(**kw):
+    # coast_dup_iou 0.5, coast_dup_seen True: on by default since session 28; named off here (tests turn them on)
+    kw = {"coast_dup_iou": 0.0, "coast_dup_seen": False, **kw}
     c = FeatureClusterer(ClusterParams(coast_check=False, **kw))
     # identity -> (loss time, expected box, velocity); all born at 0 s
     c._lost = {9: (6.7, np.array([300.0, 338, 24, 8]), None),
@@ -28,10 +30,11 @@ def _coast(c, t, reported=np.zeros((0, 4)), present=frozenset()):
     return sorted(ids.tolist())
 
 
-def test_off_by_default():
+def test_defaults_since_session_28_and_off_both_coasts_are_reported():
     p = ClusterParams()
-    assert p.coast_dup_iou == 0.0 and p.coast_live_iou == 0.0 and p.coast_dup_seen is False
-    assert _coast(_clusterer(), 7.0) == [9, 17, 30]  # both coasts on the one boat are reported
+    assert p.coast_dup_iou == 0.5 and p.coast_live_iou == 0.0 and p.coast_dup_seen is True
+    assert p.coast_dup_ir is False  # visible frames only
+    assert _coast(_clusterer(coast_dup_iou=0.0), 7.0) == [9, 17, 30]  # both coasts on the one boat are reported
 
 
 def test_two_coasts_on_one_boat_report_the_most_recently_lost_only():

@@ -3,7 +3,8 @@
 ``lost_dup_age_s`` before its loss, after an older identity was lost) whose box overlaps that older
 lost identity's expected box is retired into it; ``relink_area_at_loss`` (False: off):
 ``relink_min_area`` compares with the smaller of the expected box and the box at the loss;
-``relink_retry_s`` (0: off): a young cluster under its own identity is offered the lost identities again."""
+``relink_retry_s`` (0: off): a young cluster under its own identity is offered the lost identities again.
+All three on by default since session 28 (0.3, True, 1 s; visible frames only): ``OFF`` names them off."""
 
 import numpy as np
 
@@ -20,15 +21,18 @@ OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.4, relink_s=10
            hand_over_relinked=False, split_follow_box=0.0, relink_min_s=0.0, relink_overlap=0.0,
            box_wake_below_px=0.0, relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0,
            relink_young_after_s=0.0, relink_min_area=0.0, relink_height_zoom_min=0.0, relink_iou_tie=True,
-           relink_side_h_ratio=0.0)
+           relink_side_h_ratio=0.0,
+           # on by default since session 28; named off here: the tests turn on the step they measure
+           lost_dup_iou=0.0, relink_area_at_loss=False, relink_retry_s=0.0, relink_hold_s=0.0, relink_app_margin=0.0)
 
 
-def test_off_by_default():
+def test_defaults_since_session_28():
     d = ClusterParams()
-    assert d.lost_dup_iou == 0.0
+    assert d.lost_dup_iou == 0.3
     assert d.lost_dup_age_s == 0.5
-    assert d.relink_area_at_loss is False
-    assert d.relink_retry_s == 0.0
+    assert d.relink_area_at_loss is True
+    assert d.relink_retry_s == 1.0
+    assert d.lost_dup_ir is False and d.relink_area_at_loss_ir is False and d.relink_retry_ir is False
 
 
 def _dup_run(**kw):
@@ -51,7 +55,7 @@ def _dup_run(**kw):
 
 
 def test_dup_off_keeps_two_lost_identities():
-    got, a_id, b_id, c = _dup_run()
+    got, a_id, b_id, c = _dup_run(lost_dup_iou=0.0)
     assert got == b_id  # the young identity (nearer, overlapping most) takes the new cluster
     assert a_id in c._lost  # and the boat's older identity stays lost beside it
 
@@ -89,7 +93,7 @@ def _area_run(**kw):
 
 
 def test_area_at_loss_off_refuses_under_a_grown_box():
-    got, a_id = _area_run()
+    got, a_id = _area_run(relink_area_at_loss=False)
     assert got != a_id
 
 
@@ -123,7 +127,7 @@ def _retry_run(lose_after=False, **kw):
 
 
 def test_retry_off_keeps_the_young_cluster_apart():
-    got, a_id, b_id, c = _retry_run()
+    got, a_id, b_id, c = _retry_run(relink_retry_s=0.0)
     assert got == b_id and a_id in c._lost
 
 

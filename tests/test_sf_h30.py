@@ -86,9 +86,10 @@ def _two_lost(monkeypatch, dc, **kw):
     return ids, born
 
 
-def test_relink_app_margin_off_by_default_the_nearer_lost_identity_is_taken(monkeypatch):
-    assert ClusterParams().relink_app_margin == 0.0
-    ids, born = _two_lost(monkeypatch, (0.1, 0.9))
+def test_relink_app_margin_on_by_default_and_off_the_nearer_lost_identity_is_taken(monkeypatch):
+    p = ClusterParams()
+    assert p.relink_app_margin == 0.5 and p.relink_app_margin_ir is False  # since session 28
+    ids, born = _two_lost(monkeypatch, (0.1, 0.9), relink_app_margin=0.0)
     assert born == [ids["B"]]
 
 

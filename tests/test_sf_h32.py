@@ -17,11 +17,14 @@ OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.05, relink_s=1
            hand_over_relinked=False, split_follow_box=0.0, relink_min_s=0.0, relink_overlap=0.0,
            box_wake_below_px=0.0, relink_jump_iou=0.0, relink_young_s=0.0, relink_aspect_ratio=0.0,
            relink_young_after_s=0.0, relink_min_area=0.3, relink_height_zoom_min=0.0, relink_iou_tie=True,
-           relink_side_h_ratio=0.0, relink_retry_s=1.0)
+           relink_side_h_ratio=0.0, relink_retry_s=1.0,
+           # on by default since session 28; named off here: the tests isolate relink_hold_s
+           lost_dup_iou=0.0, relink_area_at_loss=False, relink_app_margin=0.0, relink_hold_s=0.0)
 
 
-def test_off_by_default():
-    assert ClusterParams().relink_hold_s == 0.0
+def test_on_by_default_since_session_28():
+    p = ClusterParams()
+    assert p.relink_hold_s == 1.0 and p.relink_retry_s == 1.0 and p.relink_retry_ir is False
 
 
 def _run(tiny=TINY, **kw):
@@ -43,7 +46,7 @@ def _run(tiny=TINY, **kw):
 
 
 def test_off_reports_the_young_cluster_under_its_own_identity():
-    out, a_id, b_id = _run()
+    out, a_id, b_id = _run(relink_hold_s=0.0)
     assert b_id != a_id
     assert out[0.4] == [(b_id, int(TrackState.CONFIRMED))]  # shown as B: a switch when renamed
     assert out[0.5][0][0] == a_id  # relink_retry_s renames it
@@ -74,5 +77,7 @@ def test_hold_follows_the_retry_switch_on_infrared(monkeypatch):
     out, a_id, b_id = _run(relink_hold_s=1.0, relink_retry_ir=False)
     assert out[0.4] == [(b_id, int(TrackState.CONFIRMED))]  # infrared, retry off: reported
     assert out[0.5][0][0] == b_id  # and never renamed
+    out, a_id, b_id = _run(relink_hold_s=1.0, relink_retry_ir=True)
+    assert out[0.4] == [(b_id, int(TrackState.TENTATIVE))]  # infrared, retry on (the switch True): held
     out, a_id, b_id = _run(relink_hold_s=1.0)
-    assert out[0.4] == [(b_id, int(TrackState.TENTATIVE))]  # infrared, retry on: held
+    assert out[0.4] == [(b_id, int(TrackState.CONFIRMED))]  # infrared, retry off by default: reported

@@ -22,8 +22,8 @@ MOVES, BOATS, DYS = [-150.0, 0.0, 0.0, 20.0], [False, False, False, True], [0, 0
 
 def test_coast_edge_dy_off_by_default_and_off_the_boat_below_its_rows_is_not_seen():
     p = ClusterParams()
-    assert p.coast_edge_dy == 0.0 and p.coast_edge_seen is False
-    c, _, out = run(MOVES, BOATS, DYS)
+    assert p.coast_edge_dy == 0.0 and p.coast_edge_seen is True  # coast_edge_seen on by default since session 28
+    c, _, out = run(MOVES, BOATS, DYS, coast_edge_dy=0.0)
     assert all(len(tr) == 0 for tr in out)
     assert [e[3] for e in c.coast_log][-1] == "outside"  # looked at its rows: open water, still waits
 
@@ -56,7 +56,8 @@ MOVES2, BOATS2, DXS2 = [-125.0, -2.0, -150.0, 0.0, 140.0], [True, True, False, F
 
 
 def test_coast_edge_seen_counts_the_window_from_the_last_look_that_saw_the_boat():
-    c, ident, out = run(MOVES2, BOATS2, dxs=DXS2, coast_edge_s=0.35)  # off: the window ends 0.35 s after the loss
+    # off: the window ends 0.35 s after the loss
+    c, ident, out = run(MOVES2, BOATS2, dxs=DXS2, coast_edge_s=0.35, coast_edge_seen=False)
     assert out[0].ids.tolist() == [ident] and out[1].ids.tolist() == [ident]
     assert len(out[4]) == 0
     c, ident, out = run(MOVES2, BOATS2, dxs=DXS2, coast_edge_s=0.35, coast_edge_seen=True)

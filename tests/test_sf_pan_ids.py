@@ -9,10 +9,12 @@ from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 EMPTY = (np.zeros((0, 2)), np.zeros((0, 2)))
 # the session-21 relink checks and the other session-22 relink defaults switched off, so that only
-# the view check (with the options each test names) acts; a wide gate
+# the view check (with the options each test names) acts; a wide gate.  Session 28's relink_retry_s (on by
+# default since then) is named off too: with this 200 px gate it would rename the young edge cluster to the
+# lost identity as soon as the camera points back (tests/test_sf_h29.py covers the retry)
 OFF = dict(relink_min_area=0.0, relink_area_same_zoom=False, relink_alt_s=0.0, relink_appearance=False,
            confirm_s=0.0, relink_s=10.0, coast_s=0.0, relink_px=200.0, relink_dy_h=0.0, relink_iou_tie=False,
-           relink_view_zoom_in=False, relink_view_zoom_scale=False)
+           relink_view_zoom_in=False, relink_view_zoom_scale=False, relink_retry_s=0.0)
 BOAT = [[100, 60], [130, 70]]  # a 34 x 14 px box, x 98-132
 EDGE = [[10, 60], [30, 70]]  # a cluster near the image's left edge, x 8-32
 

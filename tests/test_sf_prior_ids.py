@@ -101,13 +101,24 @@ def test_clusterer_off_gives_the_passing_boat_the_small_clusters_older_identity(
 
 
 def test_clusterer_on_keeps_the_large_clusters_identity_and_no_hand_over():
-    out = _clusterer_run(merge_id_dv_px_s=3.0)
+    # relink_retry_s (on by default since session 28) named off: it acts on the young large cluster
+    # (see the next test)
+    out = _clusterer_run(merge_id_dv_px_s=3.0, relink_retry_s=0.0)
     assert out[0] == [1]
     big = out[1]
     assert len(big) == 1 and big != [1]
     # the report keeps the large cluster's identity in every frame: the small cluster's identity,
     # lost from the reports, is not handed over to it
     assert all(o == big for o in out[1:])
+
+
+def test_retry_takes_the_joined_clusters_identity():
+    """A known interaction (session 28, measured and kept): relink_retry_s offers the young large cluster
+    the small cluster's identity, lost from the reports when it was joined into the large one's report,
+    and the report takes it a frame later."""
+    out = _clusterer_run(merge_id_dv_px_s=3.0, relink_retry_s=1.0)
+    assert out[0] == [1] and out[1] != [1]
+    assert all(o == [1] for o in out[2:])
 
 
 def test_assign_identities_min_share():

@@ -622,8 +622,8 @@ class StableFeatureExtractor:
         True by default: the boats are there, and Lucas-Kanade on every unmatched feature of
         the frame cost 14 % of the stage's time at 640x480.
     far_px, far_upscale, far_threshold, far_max_keypoints
-        The far water at a finer scale (session 25, H21; ``far_px`` 0, the default, turns it
-        off): the band's rows from its top (``band_above_px`` above the horizon) to ``far_px``
+        The far water at a finer scale (session 25, H21; on since session 28 with ``far_px`` 12,
+        ``far_threshold`` 10, ``far_max_keypoints`` 30; ``far_px`` 0 turns it off): the band's rows from its top (``band_above_px`` above the horizon) to ``far_px``
         (source pixels) below the horizon are searched on a copy upscaled ``far_upscale`` times
         (CenSurE threshold ``far_threshold``; 0 = ``band_threshold``) instead of
         ``band_upscale`` times, and get their own budget of ``far_max_keypoints`` over one row
@@ -631,7 +631,7 @@ class StableFeatureExtractor:
         (a 55x10 px cargo ship) has 0-3 blobs at 2x and 10-23 at 3x (H16), but the whole band
         at 3x makes the sea's blobs stable too.
     far_skip_ir
-        Session 26 (H22; False, the default: off): the far pass (``far_px``) only on visible
+        Session 26 (H22; True, the default since session 28; False: off): the far pass (``far_px``) only on visible
         frames; a frame :meth:`process` is given with ``ir=True`` keeps the band's own pass in
         the far rows (the 3x pass with ``far_threshold`` 10 loses the far boats of the tuning
         ``ir`` sequences).
@@ -696,11 +696,11 @@ class StableFeatureExtractor:
         redetect_threshold: int = 0,
         redetect_px: float = 3.0,
         redetect_min_confidence: int = 2,
-        far_px: float = 0.0,
+        far_px: float = 12.0,
         far_upscale: float = 3.0,
-        far_threshold: int = 0,
-        far_max_keypoints: int = 60,
-        far_skip_ir: bool = False,
+        far_threshold: int = 10,
+        far_max_keypoints: int = 30,
+        far_skip_ir: bool = True,
     ) -> None:
         if camera_motion not in _MOTION_MODELS:
             raise ValueError(f"features: camera_motion must be one of {', '.join(_MOTION_MODELS)}, not {camera_motion!r}")

@@ -2892,7 +2892,9 @@ class ClusterParams:
     to 76 x 14 px, and its new 15 x 9 px cluster was refused the identity).  ``relink_retry_s``
     (0: off; seconds): a cluster first seen less than this long ago and still under its own identity
     is offered the lost identities again in each frame, as a new cluster is (with every check), but
-    only those lost before it was first seen; its own identity is then retired, not lost.  Below
+    only those lost before it was first seen; its own identity is then retired, not lost.  It may take
+    the identity of a cluster joined into its report while moving otherwise, which ``merge_id_dv_px_s``
+    does not hand over (session 28: skipping those added 3 switches on ``pan`` 111-142, so it is not done).  Below
     ``confirm_s`` its own identity was never reported.  A boat's new cluster is often born on a few
     features, a box too small for ``relink_min_area``, and grows in the next frames (on sim ``pan`` 82
     at 15.0 s the motorboat's new 9 x 4 px cluster beside its lost 35 x 9 px box, reported under its
@@ -2928,7 +2930,17 @@ class ClusterParams:
     ``relink_area_at_loss_ir``, ``relink_retry_ir``, ``relink_app_margin_ir`` (True: the step acts on
     infrared frames too, as before; False: off on infrared frames, i.e. ``coast_dup_iou``,
     ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
-    only, in the style of ``wake_track_ir``).  They change nothing while their step is off."""
+    only, in the style of ``wake_track_ir``).  They change nothing while their step is off.
+
+    Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
+    the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
+    0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
+    ``coast_edge_horizon`` (``coast_edge_horizon_h`` 1.5, ``coast_edge_horizon_contrast`` 5),
+    ``coast_dup_iou`` 0.5 with ``coast_dup_seen``; the far strip's cuts ``far_cut_px`` 12 and
+    ``far_cut_deep_px`` 24 (with the extractor's far-water pass, ``StableFeatureExtractor(far_px=12)``); and
+    the identity steps ``lost_dup_iou`` 0.3, ``relink_area_at_loss``, ``relink_retry_s`` 1, ``relink_app_margin``
+    0.5 and ``relink_hold_s`` 1, session 27's five on visible frames only (their ``*_ir`` switches False).
+    Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
     alpha: float = 3.0
@@ -3008,15 +3020,15 @@ class ClusterParams:
     size_filter_grown: bool = False
     size_filter_height: bool = True
     wake_thick: bool = False
-    wake_core: float = 0.0
-    wake_core_ir: float | None = None
+    wake_core: float = 0.5
+    wake_core_ir: float | None = 0.0
     wake_track_s: float = 0.0
     wake_track_px_s: float = 0.0
     wake_track_n: int = 4
-    wake_track_ir: bool = True
-    wake_hold_s: float = 0.0
-    wake_front: float = 0.0
-    wake_core_iou: float = 0.0
+    wake_track_ir: bool = False
+    wake_hold_s: float = 1.0
+    wake_front: float = 0.3
+    wake_core_iou: float = 0.6
     wake_core_iou_cut: float = 0.0
     box_disp_s: float = 1.0
     box_disp_frac: float = 0.5
@@ -3105,16 +3117,16 @@ class ClusterParams:
     grow_core_retry_ir: bool = True
     coast_edge: float = 6.0
     coast_edge_s: float = 8.0
-    coast_edge_seen: bool = False
+    coast_edge_seen: bool = True
     coast_edge_dy: float = 0.0
-    coast_edge_horizon: bool = False
+    coast_edge_horizon: bool = True
     coast_edge_clear: float = 0.0
-    coast_edge_horizon_contrast: float = 0.0
+    coast_edge_horizon_contrast: float = 5.0
     coast_edge_horizon_out: float = 0.0
-    coast_edge_horizon_h: float = 0.0
-    coast_dup_iou: float = 0.0
+    coast_edge_horizon_h: float = 1.5
+    coast_dup_iou: float = 0.5
     coast_live_iou: float = 0.0
-    coast_dup_seen: bool = False
+    coast_dup_seen: bool = True
     coast_look_up: float = 1.0
     coast_look_ahead: float = 0.5
     relink_jump_iou: float = 0.5
@@ -3132,25 +3144,25 @@ class ClusterParams:
     relink_own_speed_k: float = 0.0
     relink_own_speed_floor: float = 4.0
     coast_drop_alt: bool = True
-    far_cut_px: float = 0.0
+    far_cut_px: float = 12.0
     far_cut_gap_px: float = 6.0
     far_cut_ir: bool = False
     far_id_px: float = 0.0
     far_id_ir: bool = False
-    far_cut_deep_px: float = 0.0
+    far_cut_deep_px: float = 24.0
     far_cut_deep_gap_px: float = 20.0
-    lost_dup_iou: float = 0.0
+    lost_dup_iou: float = 0.3
     lost_dup_age_s: float = 0.5
-    relink_area_at_loss: bool = False
-    relink_retry_s: float = 0.0
+    relink_area_at_loss: bool = True
+    relink_retry_s: float = 1.0
     edge_min_w_px: float = 0.0
-    relink_app_margin: float = 0.0
-    relink_hold_s: float = 0.0
-    coast_dup_ir: bool = True
-    lost_dup_ir: bool = True
-    relink_area_at_loss_ir: bool = True
-    relink_retry_ir: bool = True
-    relink_app_margin_ir: bool = True
+    relink_app_margin: float = 0.5
+    relink_hold_s: float = 1.0
+    coast_dup_ir: bool = False
+    lost_dup_ir: bool = False
+    relink_area_at_loss_ir: bool = False
+    relink_retry_ir: bool = False
+    relink_app_margin_ir: bool = False
 
 
 class FeatureClusterer:
