@@ -133,3 +133,26 @@ def test_under_dark_mask():
     assert _under_dark(_under_image(200), x, hz, 1.0, p, 8.0).tolist() == [True, False, False, True]
     # a threshold above the strip's 20 grey levels: nothing is dark
     assert not _under_dark(_under_image(200), x, hz, 1.0, p, 25.0).any()
+
+
+def test_coast_foot_dark_batch_matches_one_cluster_at_a_time():
+    """Session 28: with ``foot_dark`` the sides of every candidate are tested in one call; each
+    cluster's answer is the one it gets alone (the tests work column by column)."""
+    p = _params(foot_open_px=10.0, foot_dark=8.0)
+    hz = Level(ROW)
+    xy = np.array([(x, ROW + dy) for x, dy in FOOT + [(250.0, 5.0), (262.0, 6.0), (150.0, 5.0), (150.0, 20.0),
+                                                    (140.0, 4.0), (156.0, 5.0)]])
+    k = np.array([0, 0, 0, 0, 1, 1, 2, 2, 3, 3])
+    boxes = np.array([[58.0, 102.0, 42.0, 5.0], [248.0, 103.0, 16.0, 5.0], [148.0, 103.0, 4.0, 19.0],
+                      [138.0, 102.0, 20.0, 5.0]])
+    for strip in (200, 110, 0):
+        img = _under_image(strip)
+        both = _coast_foot(xy, k, 4, boxes, np.arange(4), img, hz, 1.0, p)
+        alone = [bool(_coast_foot(xy, k, 4, boxes[[i]], np.array([i]), img, hz, 1.0, p)[0]) for i in range(4)]
+        assert both.tolist() == alone
+        if strip == 200:  # the foot and the cluster on the strip (sides 128, 168); open sea, deep cluster reported
+            assert both.tolist() == [True, False, False, True]
+        if strip == 110:  # the strip ends at x 110: cluster 3's sides are open sea now
+            assert both.tolist() == [True, False, False, False]
+        if strip == 0:
+            assert not both.any()

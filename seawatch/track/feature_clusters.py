@@ -314,20 +314,26 @@ def _coast_foot(xy: np.ndarray, k: np.ndarray, n: int, boxes: np.ndarray, idx: n
     deep = np.full(n, -np.inf)
     np.maximum.at(deep, k, dy)
     cand = np.flatnonzero(deep[idx] <= p.water_margin_px * zoom)
+    if not len(cand):
+        return out
+    img = np.asarray(image)
+    if img.ndim == 3 or img.dtype != np.uint8:
+        img = to_grey_u8(img)  # once for every candidate (the tests below take a grey image as it is)
     dark = float(getattr(p, "foot_dark", 0.0))
-    for c in cand:
-        b = boxes[c]
-        half = 0.5 * float(b[2])
-        q = _FootSide(p.foot_open_px + half / zoom, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
-        if dark <= 0:
-            out[c] = not bool(_far_open(image, np.array([float(b[0]) + half]), horizon, zoom, q)[0])
-            continue
-        d = q.far_open_px * zoom
-        xs = np.array([float(b[0]) + half - d, float(b[0]) + half + d])  # the two sides, as above
-        q0 = _FootSide(0.0, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
-        side = np.array([_far_open(image, xs[i:i + 1], horizon, zoom, q0)[0] for i in range(2)])
-        side &= ~_under_dark(image, xs, horizon, zoom, p, dark)
-        out[c] = not bool(side.any())
+    half = 0.5 * boxes[cand, 2].astype(np.float64)
+    mid = boxes[cand, 0].astype(np.float64) + half
+    if dark <= 0:
+        for j, c in enumerate(cand):
+            q = _FootSide(p.foot_open_px + half[j] / zoom, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
+            out[c] = not bool(_far_open(img, mid[j:j + 1], horizon, zoom, q)[0])
+        return out
+    # the two sides of every candidate in one call each (the tests work column by column, so a batch
+    # gives each column's answer as a call of its own would)
+    d = (p.foot_open_px + half / zoom) * zoom
+    xs = np.stack([mid - d, mid + d], axis=1).ravel()  # left, right of each candidate
+    q0 = _FootSide(0.0, p.far_sky_tol, p.far_open_contrast, p.water_margin_px)
+    side = _far_open(img, xs, horizon, zoom, q0) & ~_under_dark(img, xs, horizon, zoom, p, dark)
+    out[cand] = ~side.reshape(-1, 2).any(axis=1)
     return out
 
 
