@@ -1054,7 +1054,7 @@ def _edge_deviation(win, bg, r, k, bw):
     return _pixel_deviation(win, bg, r, k if k < bw else win.shape[1] - 2 * bw + k)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def _pixel_deviation(win, bg, r, q):
     """Largest channel deviation of pixel ``(r, q)`` from its row's background ``bg[r]``."""
     m = np.float32(0.0)
