@@ -108,24 +108,40 @@ def motion_dissimilarity(
 @nb.njit(cache=True, nogil=True)
 def _pair_dissimilarity(history, pi, pj, p_px, frame_interval_s, angle):
     """:func:`motion_dissimilarity` of the pairs ``(history[pi], history[pj])`` without
-    gathering their histories (the same formula, sample by sample)."""
+    gathering their histories (the same formula, sample by sample).  Each feature's direction
+    and step per sample are computed once (session 29: not once per pair it is in; the same
+    values)."""
     out = np.empty(len(pi))
-    nw = history.shape[1]
+    nf, nw = history.shape[0], history.shape[1]
+    need = np.zeros(nf, np.bool_)
+    for e in range(len(pi)):
+        need[pi[e]] = True
+        need[pj[e]] = True
+    fin = np.zeros((nf, nw), np.bool_)
+    ang = np.zeros((nf, nw))
+    mag = np.zeros((nf, nw))
+    for f in range(nf):
+        if not need[f]:
+            continue
+        for w in range(nw):
+            x, y = history[f, w, 0], history[f, w, 1]
+            if np.isfinite(x) and np.isfinite(y):
+                fin[f, w] = True
+                ang[f, w] = np.arctan2(y, x)
+                mag[f, w] = np.hypot(x, y) * frame_interval_s
     for e in range(len(pi)):
         a, b = pi[e], pj[e]
         n = 0
         th = 0.0
         lm = 0.0
         for w in range(nw):
-            ax, ay = history[a, w, 0], history[a, w, 1]
-            bx, by = history[b, w, 0], history[b, w, 1]
-            if not (np.isfinite(ax) and np.isfinite(ay) and np.isfinite(bx) and np.isfinite(by)):
+            if not (fin[a, w] and fin[b, w]):
                 continue
             n += 1
-            ang = abs(np.arctan2(ay, ax) - np.arctan2(by, bx))
-            th += min(ang, 2.0 * np.pi - ang) / np.pi
-            ma = np.hypot(ax, ay) * frame_interval_s
-            mb = np.hypot(bx, by) * frame_interval_s
+            ang_ = abs(ang[a, w] - ang[b, w])
+            th += min(ang_, 2.0 * np.pi - ang_) / np.pi
+            ma = mag[a, w]
+            mb = mag[b, w]
             fast = max(ma, mb)
             if fast > 0:
                 lm += (1.0 / (1.0 + np.exp(p_px - fast))) * (1.0 - min(ma, mb) / fast)
