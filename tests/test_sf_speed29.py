@@ -8,7 +8,7 @@ import numpy as np
 from seawatch.track import feature_clusters as fc
 
 
-@nb.njit(cache=False)
+@nb.njit(cache=True)
 def _pair_dissimilarity_ref(history, pi, pj, p_px, frame_interval_s, angle):
     # main at d535c84
     out = np.empty(len(pi))
@@ -84,3 +84,47 @@ def test_grow_kernels_same_values():
         assert np.array_equal(dev, _deviation_ref(win, bg, r0, r1 + 1, c0, c1 + 1))
         peak = fc._core_peak_u8(win, bg, r0, r1 + 1, c0, c1 + 1)
         assert np.float32(peak) == np.float32(np.percentile(dev, 90))
+
+
+def _same(a, b):
+    if isinstance(a, np.ndarray):
+        return a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+    if isinstance(a, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if hasattr(a, "__dict__"):
+        return type(a) is type(b) and _same(vars(a), vars(b))
+    return a == b or (a != a and b != b)
+
+
+def test_stage_one_grey_same_outputs(monkeypatch):
+    """The stage converts the frame once and gives the grey image to the extractor and to the
+    clustering; the old path (the colour frame to both, each test converting it) gives the same."""
+    from seawatch.detect.features import StableFeatureExtractor
+    from seawatch.sim import make_scenario
+    from seawatch.track.feature_clusters import StableFeatureTracker
+
+    scn = make_scenario("pan", seed=1, width=320, height=240, fps=25.0, duration_s=1.0)
+    new = StableFeatureTracker(StableFeatureExtractor(nominal_fps=25.0), report_tentative=True, camera=scn.camera)
+    old = StableFeatureTracker(StableFeatureExtractor(nominal_fps=25.0), report_tentative=True, camera=scn.camera)
+    n_grey = []
+    real = fc.to_grey_u8
+
+    def counted(img, *a, **k):
+        n_grey.append(1)
+        return real(img, *a, **k)
+
+    monkeypatch.setattr(fc, "to_grey_u8", counted)
+    for i in range(10):
+        fr = scn.render(i)
+        n_grey.clear()
+        d_new, t_new = new.process(fr)
+        assert len(n_grey) == 1  # once a frame
+        hz, zoom, prior = old.extractor_inputs(fr)
+        snap = old.extractor.process(fr.image, fr.t_s, fr.index, horizon=hz, zoom=zoom, motion_prior=prior)
+        assert _same(vars(snap), vars(new.last_snapshot))
+        n_grey.clear()
+        d_old, t_old = old.clusterer.update(snap, fr.image, horizon=hz, zoom=zoom, camera=old._frame_camera)
+        assert len(n_grey) <= 1  # made at most once an update when not given
+        assert _same(d_new, d_old) and _same(t_new, t_old)
