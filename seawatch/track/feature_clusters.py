@@ -108,24 +108,40 @@ def motion_dissimilarity(
 @nb.njit(cache=True, nogil=True)
 def _pair_dissimilarity(history, pi, pj, p_px, frame_interval_s, angle):
     """:func:`motion_dissimilarity` of the pairs ``(history[pi], history[pj])`` without
-    gathering their histories (the same formula, sample by sample)."""
+    gathering their histories (the same formula, sample by sample).  Each feature's direction
+    and step per sample are computed once (session 29: not once per pair it is in; the same
+    values)."""
     out = np.empty(len(pi))
-    nw = history.shape[1]
+    nf, nw = history.shape[0], history.shape[1]
+    need = np.zeros(nf, np.bool_)
+    for e in range(len(pi)):
+        need[pi[e]] = True
+        need[pj[e]] = True
+    fin = np.zeros((nf, nw), np.bool_)
+    ang = np.zeros((nf, nw))
+    mag = np.zeros((nf, nw))
+    for f in range(nf):
+        if not need[f]:
+            continue
+        for w in range(nw):
+            x, y = history[f, w, 0], history[f, w, 1]
+            if np.isfinite(x) and np.isfinite(y):
+                fin[f, w] = True
+                ang[f, w] = np.arctan2(y, x)
+                mag[f, w] = np.hypot(x, y) * frame_interval_s
     for e in range(len(pi)):
         a, b = pi[e], pj[e]
         n = 0
         th = 0.0
         lm = 0.0
         for w in range(nw):
-            ax, ay = history[a, w, 0], history[a, w, 1]
-            bx, by = history[b, w, 0], history[b, w, 1]
-            if not (np.isfinite(ax) and np.isfinite(ay) and np.isfinite(bx) and np.isfinite(by)):
+            if not (fin[a, w] and fin[b, w]):
                 continue
             n += 1
-            ang = abs(np.arctan2(ay, ax) - np.arctan2(by, bx))
-            th += min(ang, 2.0 * np.pi - ang) / np.pi
-            ma = np.hypot(ax, ay) * frame_interval_s
-            mb = np.hypot(bx, by) * frame_interval_s
+            ang_ = abs(ang[a, w] - ang[b, w])
+            th += min(ang_, 2.0 * np.pi - ang_) / np.pi
+            ma = mag[a, w]
+            mb = mag[b, w]
             fast = max(ma, mb)
             if fast > 0:
                 lm += (1.0 / (1.0 + np.exp(p_px - fast))) * (1.0 - min(ma, mb) / fast)
@@ -1054,7 +1070,7 @@ def _edge_deviation(win, bg, r, k, bw):
     return _pixel_deviation(win, bg, r, k if k < bw else win.shape[1] - 2 * bw + k)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def _pixel_deviation(win, bg, r, q):
     """Largest channel deviation of pixel ``(r, q)`` from its row's background ``bg[r]``."""
     m = np.float32(0.0)
@@ -4492,7 +4508,8 @@ class FeatureClusterer:
         self.camera_err_px_s = e if not np.isfinite(self.camera_err_px_s) else (1 - a) * self.camera_err_px_s + a * e
 
     def update(self, snap: FeatureSnapshot, image: np.ndarray | None = None,
-               horizon=None, zoom: float = 1.0, camera=None, ir: bool = False) -> tuple[Detections, Tracks]:
+               horizon=None, zoom: float = 1.0, camera=None, ir: bool = False,
+               grey: np.ndarray | None = None) -> tuple[Detections, Tracks]:
         """Cluster one frame's features; returns ``(Detections, Tracks)`` of the clusters.
 
         ``image`` (the frame, in the snapshot's pixels) lets ``params.grow_box`` > 0 grow each
@@ -4502,8 +4519,11 @@ class FeatureClusterer:
         zoom factor, 1 at its widest) below it: with ``params.still_radius_px`` > 0, still stable
         features there are clustered too (see :func:`frame_edges`).  The margin leaves out the
         foot of a distant coast, which lies a few pixels below the sea horizon.  ``ir`` says the
-        frame is infrared (``params.top_frac_ir`` then replaces ``params.top_frac``)."""
+        frame is infrared (``params.top_frac_ir`` then replaces ``params.top_frac``).  ``grey``: the
+        image's :func:`~seawatch.detect.features.to_grey_u8`, when the caller has it (it saves a
+        conversion; otherwise it is made once here when a test needs it)."""
         p = self.params
+        self._grey_in = grey
         self._top_frac = p.top_frac_ir if (ir and p.top_frac_ir is not None) else p.top_frac
         self._ir = bool(ir)
         # session 25 (helper H15): ``graph_cut_dv_px_s_ir`` replaces ``graph_cut_dv_px_s`` on infrared frames
@@ -4527,7 +4547,8 @@ class FeatureClusterer:
                 far = _far_still(snap.xy[st], row, max(float(zoom), 1e-3), p)
                 if p.far_open_px > 0 and image is not None and far.any():
                     fi = np.flatnonzero(far)
-                    far[fi[~_far_open(image, snap.xy[st][fi, 0], horizon, max(float(zoom), 1e-3), p)]] = False
+                    far[fi[~_far_open(self._grey_of(image), snap.xy[st][fi, 0], horizon, max(float(zoom), 1e-3),
+                                      p)]] = False
                 still |= far
         floor = self.min_speed_px_s
         if p.known_band_px > 0 and floor < p.min_speed_px_s and len(st):
@@ -4567,6 +4588,13 @@ class FeatureClusterer:
         self._zoom = max(float(zoom), 1e-3)
         self._horizon = horizon
         return self._outputs(snap, labels, cids, image)
+
+    def _grey_of(self, image):
+        """``to_grey_u8(image)`` for this :meth:`update`, made at most once (session 29: the far-open
+        and coast-foot tests made it each; the stage passes the extractor's)."""
+        if getattr(self, "_grey_in", None) is None:
+            self._grey_in = to_grey_u8(image)
+        return self._grey_in
 
     def _outputs(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray, image=None):
         p = self.params
@@ -4818,7 +4846,7 @@ class FeatureClusterer:
         if p.foot_open_px > 0 and image is not None and self._horizon is not None and len(cids):
             # a cluster wholly inside the water margin with no open sea beside it: the foot of a coast
             idx = np.arange(n) if keep_c is None else (np.flatnonzero(keep_c) if keep_c.dtype == bool else keep_c)
-            ok = ~_coast_foot(xy, k, n, boxes, idx, image, self._horizon, self._zoom, p)
+            ok = ~_coast_foot(xy, k, n, boxes, idx, self._grey_of(image), self._horizon, self._zoom, p)
             cids, boxes, count, vel = cids[ok], boxes[ok], count[ok], vel[ok]
             keep_c = idx[ok]
         if p.merge_overlap > 0 and len(cids) > 1:
@@ -5613,7 +5641,8 @@ class StableFeatureTracker:
         """
         try:
             hz, zoom, prior = self.extractor_inputs(frame)
-            snap = self.extractor.process(frame.image, frame.t_s, frame.index, horizon=hz, zoom=zoom,
+            grey = to_grey_u8(frame.image)  # once a frame, for the extractor and the clustering (session 29)
+            snap = self.extractor.process(grey, frame.t_s, frame.index, horizon=hz, zoom=zoom,
                                           motion_prior=prior, ir=frame.modality == Modality.IR)
         except ValueError as exc:
             raise ValueError(f"stable_features: frame {frame.index} (t={frame.t_s:.3f} s): {exc}") from None
@@ -5621,7 +5650,7 @@ class StableFeatureTracker:
         self.last_horizon = hz
         self.clusterer.camera_id = frame.camera_id
         dets, tracks = self.clusterer.update(snap, frame.image, horizon=hz, zoom=zoom, camera=self._frame_camera,
-                                             ir=frame.modality == Modality.IR)
+                                             ir=frame.modality == Modality.IR, grey=grey)
         if not self.report_tentative and len(tracks):
             keep = tracks.states != int(TrackState.TENTATIVE)
             tracks = tracks.subset(keep)
