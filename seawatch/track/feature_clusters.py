@@ -2035,7 +2035,8 @@ def _box_iou(a, b) -> float:
 
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
                        sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
-                       id_ratio=2.0, id_apart=False, prev=None, keep_iou=0.0):
+                       id_ratio=2.0, id_apart=False, prev=None, keep_iou=0.0,
+                       keep_now_iou=0.0):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -2066,9 +2067,13 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     overlaps the joined box most (IoU), when that IoU is at least ``keep_iou``, whatever the
     rules above say: a report joined from the same clusters keeps the identity it had, and a small
     boat's cluster inside a big boat's box does not give the big boat's report its older identity
-    frame by frame as the join comes and goes."""
+    frame by frame as the join comes and goes.  ``keep_now_iou`` (0: off; session 29, with ``prev`` and
+    ``keep_iou``): where no member passes ``keep_iou``, the member whose box in ``prev`` overlaps the
+    joined box most (below ``keep_iou``) takes the identity when its own box of this frame overlaps
+    the joined box by at least ``keep_now_iou`` (the frame before's box can be a part of the boat)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
+    own = {int(c): boxes[q].copy() for q, c in enumerate(cids)} if keep_now_iou > 0 else {}  # before any join
     n0 = count.copy()  # each cluster's own feature count and velocity, before any join
     v0 = None if rel_vel is None or id_dv <= 0 else np.asarray(rel_vel, np.float64)[order].copy()
     pos0 = {int(c): q for q, c in enumerate(cids)}
@@ -2153,6 +2158,16 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 u = _box_iou(boxes[i], pb)
                 if u >= best_iou and (best is None or u > best_iou):
                     best, best_iou = c, u
+            if best is None and keep_now_iou > 0:
+                # the member whose box in the frame before overlaps the joined box most, confirmed by its own box now
+                top, top_iou = None, 0.0
+                for c in members[i]:
+                    if c in prev:
+                        u = _box_iou(boxes[i], prev[c])
+                        if u > top_iou:
+                            top, top_iou = c, u
+                if top is not None and _box_iou(boxes[i], own[top]) >= keep_now_iou:
+                    best = top
             if best is not None:
                 cids[i] = best
                 members[i] = [best] + [c for c in members[i] if c != best]
@@ -2954,6 +2969,14 @@ class ClusterParams:
     ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
     only, in the style of ``wake_track_ir``).  They change nothing while their step is off.
 
+    Session 29 (the lead, the joined report's identity on infrared): ``merge_id_now_iou_ir`` (0: off;
+    infrared frames only; an IoU): where ``merge_id_keep_iou`` finds no member whose report in the frame before
+    overlaps the joined box enough, the member whose report in the frame before overlaps it most keeps its identity
+    when its own box of this frame overlaps the joined box by at least this. The frame before's box
+    of a big boat's cluster can flicker (sim ``ir`` 19 at 35.5 s: the ferry's report was its lower hull alone,
+    IoU 0.25 with the next frame's joined box, which the ferry cluster's own box overlaps by 0.81); the older
+    small cluster of a boat beside it then won the joined report by age, and kept it through the frame before's box.
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3185,6 +3208,7 @@ class ClusterParams:
     relink_area_at_loss_ir: bool = False
     relink_retry_ir: bool = False
     relink_app_margin_ir: bool = False
+    merge_id_now_iou_ir: float = 0.0
 
 
 class FeatureClusterer:
@@ -4878,7 +4902,8 @@ class FeatureClusterer:
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
                                                          p.merge_keep_gap_h, self._apart or None,
                                                          p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
-                                                         p.merge_id_apart, prev, p.merge_id_keep_iou)
+                                                         p.merge_id_apart, prev, p.merge_id_keep_iou,
+                                                         p.merge_id_now_iou_ir if self._ir else 0.0)
             if p.merge_id_keep_iou > 0:
                 self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
                 self._report_last_t = fi
