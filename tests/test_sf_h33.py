@@ -1,13 +1,14 @@
-"""Session 29 (issue #8, helper h33): ``relink_side_row_margin``.  Two boats leave the view at the image's
-left edge at two rows (B at rows 98-102 first, then the camera moves the content 40 px left, then A at rows
-58-62); 2 s later a new cluster is born at the left edge on B's row.  Its gap to A's expected box (28 px,
-vertical) is smaller than to B's (carried 40 px out of the view, 33 px), so the relink's nearest-first pairs
-give it A's identity; with the margin, A (row at the loss 38 px off) is not its candidate and it takes B's.
-The row check ``relink_dy_h`` is off here (it would refuse A outright at this short loss)."""
+"""Session 29 (issue #8, helper h33): ``relink_side_row_margin``.  A level horizon at row 40.  Two boats leave
+the view at the image's left edge at two depths (B at rows 98-102 first: 62 px under the horizon, 4 px high;
+then the camera moves the content 50 px left; then A at rows 58-62: 22 px under it); 3 s later a new cluster is
+born at the left edge on B's rows.  Its gap to A's expected box (34 px, vertical) is smaller than to B's (carried
+50 px out of the view: 43 px), so the relink's nearest-first pairs give it A's identity; with the margin, A
+(depth 5.5 against the new cluster's 15, B's 15.5) is not its candidate and it takes B's.  The row check
+``relink_dy_h`` is off here (it would refuse A outright at this short loss)."""
 
 import numpy as np
 
-from _feature_snap import COAST_BASE, snap, shift
+from _feature_snap import COAST_BASE, Level, snap, shift
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 A = [[1, 58], [9, 62]]  # boat A's two features (box [1, 58, 8, 4]), at the left edge
@@ -17,27 +18,27 @@ W = [[5, 0], [5, 0]]
 NONE = np.zeros((0, 2))
 
 
-def run(ir=False, **kw):
+def run(ir=False, horizon=True, new=([[2, 96], [10, 100]]), **kw):
     c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "relink_dy_h": 0.0, "coast_s": 0.0,
                                           "relink_retry_s": 0.0, "relink_hold_s": 0.0, **kw}))
-    tr = None
+    hz = Level(40) if horizon else None
 
     def step(xy, v, k, ids, h=None):
-        return c.update(snap(xy, v, 0.1 * k, k, ids, h=h), None, ir=ir)[1]
+        return c.update(snap(xy, v, 0.1 * k, k, ids, h=h), None, horizon=hz, ir=ir)[1]
 
+    tr = None
     for k in range(6):
         tr = step(A + B, V + W, k, [1, 2, 3, 4])
     assert len(tr) == 2
     order = np.argsort(tr.boxes[:, 1])
     ids = {"A": int(tr.ids[order[0]]), "B": int(tr.ids[order[1]])}
     step(A, V, 6, [1, 2])  # B gone: lost at the left edge
-    step(A, V, 7, [1, 2], h=shift(-40))  # the camera moves: B's expected box 40 px out of the view
+    step(A, V, 7, [1, 2], h=shift(-50))  # the camera moves: B's expected box 50 px out of the view
     step(NONE, NONE, 8, [])  # A gone
-    for k in range(9, 28):
+    for k in range(9, 38):
         step(NONE, NONE, k, [])
     assert ids["A"] in c._lost and ids["B"] in c._lost
-    assert ids["A"] in c._lost_side or kw.get("relink_side_row_margin", 0) == 0
-    tr = step([[2, 90], [10, 100]], [[3, 0], [3, 0]], 28, [5, 6])  # the new cluster on B's row
+    tr = step(new, [[3, 0], [3, 0]], 38, [5, 6])  # the new cluster on B's rows
     return ids, [int(r) for r in tr.ids]
 
 
@@ -48,18 +49,20 @@ def test_off_by_default_the_nearer_lost_identity_is_taken():
     assert born == [ids["A"]]
 
 
-def test_relink_side_row_margin_takes_the_identity_lost_on_its_row():
-    ids, born = run(relink_side_row_margin=15.0)
+def test_relink_side_row_margin_takes_the_identity_lost_at_its_depth():
+    ids, born = run(relink_side_row_margin=0.7)
     assert born == [ids["B"]]
 
 
-def test_relink_side_row_margin_within_the_margin_the_nearer_is_taken():
-    ids, born = run(relink_side_row_margin=40.0)  # rows 2 and 38 px off: within 40 px of each other
+def test_relink_side_row_margin_within_the_margin_or_without_a_horizon_the_nearer_is_taken():
+    ids, born = run(relink_side_row_margin=1.2)  # |ln| 0.03 (B) and 1.0 (A): within 1.2 of each other
+    assert born == [ids["A"]]
+    ids, born = run(horizon=False, relink_side_row_margin=0.7)
     assert born == [ids["A"]]
 
 
 def test_relink_side_row_margin_off_on_infrared_frames_unless_asked():
-    ids, born = run(ir=True, relink_side_row_margin=15.0)
+    ids, born = run(ir=True, relink_side_row_margin=0.7)
     assert born == [ids["A"]]
-    ids, born = run(ir=True, relink_side_row_margin=15.0, relink_side_row_ir=True)
+    ids, born = run(ir=True, relink_side_row_margin=0.7, relink_side_row_ir=True)
     assert born == [ids["B"]]

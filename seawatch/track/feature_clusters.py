@@ -2938,17 +2938,18 @@ class ClusterParams:
     ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
     only, in the style of ``wake_track_ir``).  They change nothing while their step is off.
 
-    ``relink_side_row_margin`` (session 29, h33; px, times the zoom; 0: off): a new cluster with two or
-    more lost identities in its relink gate that were lost at the image's left or right edge takes none
-    whose row at the loss lies more than this margin further from its own than the nearest one's.  The row
-    is the box's bottom less the horizon's row at its centre (the raw bottom row without a horizon), that
-    of the lost box in the frame of the loss, not the expected box's: a box carried for 25 s outside the
-    image by the frames' homographies drifts in its row by 30-50 px, and the relink's pairs go nearest
-    first on a gap that the boats' own motion out of view (~200 px) dominates.  Only where the zoom is
-    within 5 % of the zoom at both losses.  At the pan's return on sim ``pan`` 80 (34.8 s) the rib's new
-    cluster (bottom 342) took the fishing boat's identity (bottom at the loss 304, gap 177 px) rather than
-    the rib's (342, gap 196 px), and the fishing boat the rib's at 38.8 s.  ``relink_side_row_ir`` (False:
-    visible frames only; True: on infrared frames too).
+    ``relink_side_row_margin`` (session 29, h33; no unit: a difference of natural logs; 0: off; needs a
+    horizon): a new cluster with two or more lost identities in its relink gate that were lost at the
+    image's left or right edge takes none whose depth at the loss is further from its own, by more than this
+    margin, than the nearest one's.  The depth is the box's bottom row less the horizon's row at its centre,
+    over the box's height (for the lost identity: its box at the loss, in the frame of the loss, over the
+    median of its last heights clear of the side edges, ``relink_side_h_n``); compared as ``|ln(q_new /
+    q_lost)|``.  It does not change with the zoom or with the boat's range.  The relink's pairs go nearest
+    first, on a gap that the boats' own motion out of view (~200 px in 25 s) dominates, to an expected box
+    whose row, carried 25 s outside the image by the frames' homographies, drifts by 30-50 px.  At the pan's
+    return on sim ``pan`` 80 (34.8 s, zoom 1.6) the rib's new cluster (depth 8.5) took the fishing boat's
+    identity (1.8 at the loss, gap 177 px) rather than the rib's (10.0, gap 196 px), and the fishing boat
+    the rib's at 38.8 s.  ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
 
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
@@ -3185,6 +3186,10 @@ class ClusterParams:
     relink_side_row_ir: bool = False
 
 
+import os as _os
+_H33_DEBUG = bool(_os.environ.get('H33_DEBUG'))
+
+
 class FeatureClusterer:
     """Clusters of stable features as tracked objects (the tracking half of paper B).
 
@@ -3264,7 +3269,7 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
-        self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row, zoom) at the loss (relink_side_row_margin)
+        self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row, zoom, height) at the loss (relink_side_row_margin)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -4013,9 +4018,7 @@ class FeatureClusterer:
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
                     if side_row_on and k in self._lost_side and k in self._lost_row:
-                        rk = self._lost_row[k]
-                        if abs(self._zoom / max(rk[2], 1e-6) - 1.0) <= 0.05:
-                            side_row[(i, k)] = rk
+                        side_row[(i, k)] = self._lost_row[k]
         if p.relink_app_margin > 0 and (p.relink_app_margin_ir or not self._ir) and len(app_d) > 1:
             # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
             # more than the margin further away than the best-looking one are not its candidates
@@ -4024,8 +4027,9 @@ class FeatureClusterer:
                 best[i] = min(best.get(i, np.inf), a)
             pairs = [q for q in pairs if app_d.get((q[2], q[3]), -np.inf) <= best.get(q[2], np.inf) + p.relink_app_margin]
         if side_row_on and len(side_row) > 1:
-            # relink_side_row_margin: of a new cluster's lost identities lost at the side, those whose row at the
-            # loss lies more than the margin further from its row than the nearest one's are not its candidates
+            # relink_side_row_margin: of a new cluster's lost identities lost at the side, those whose depth (rows
+            # under the horizon per box height) at the loss is more than the margin (|ln|) further from the new
+            # cluster's than the nearest one's are not its candidates
             by_i = {}
             for (i, k), rk in side_row.items():
                 by_i.setdefault(i, []).append((k, rk))
@@ -4033,13 +4037,20 @@ class FeatureClusterer:
             for i, lst in by_i.items():
                 if len(lst) < 2:
                     continue
-                use_h = all(rk[0] is not None for _, rk in lst)
                 me = self._row_key(boxes[i])
-                if use_h and me[0] is None:
-                    use_h = False
-                dr = {k: abs((me[0] - rk[0]) if use_h else (me[1] - rk[1])) for k, rk in lst}
-                lim = min(dr.values()) + p.relink_side_row_margin * self._zoom
+                if me[0] is None or me[0] <= 0 or boxes[i][3] < 1:
+                    continue
+                q = np.log(me[0] / float(boxes[i][3]))
+                dr = {k: abs(q - np.log(rk[0] / rk[3])) for k, rk in lst
+                      if rk[0] is not None and rk[0] > 0 and rk[3] >= 1}
+                if len(dr) < 2:
+                    continue
+                lim = min(dr.values()) + p.relink_side_row_margin
                 drop.update((i, k) for k, r in dr.items() if r > lim)
+                if _H33_DEBUG:
+                    print("H33", round(snap.t_s, 2), int(cids[i]), boxes[i].round().tolist(), round(float(q), 2),
+                          {k: round(float(r), 2) for k, r in dr.items()}, round(self._zoom, 3),
+                          [(k, [round(x, 1) for x in rk]) for k, rk in lst])
             if drop:
                 pairs = [q for q in pairs if (q[2], q[3]) not in drop]
         done = set()
@@ -4182,7 +4193,10 @@ class FeatureClusterer:
                     else:
                         self._lost_side.discard(k)
                 if p.relink_side_row_margin > 0:  # session 29 (h33): its row at the loss, not the carried one's
-                    self._lost_row[k] = self._row_key(self._lost[k][1]) + (self._zoom,)
+                    hw = self._whole_h.get(k)
+                    he = (float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw])) if hw
+                          else float(self._lost[k][1][3]))
+                    self._lost_row[k] = self._row_key(self._lost[k][1]) + (self._zoom, he)
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
                         or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
@@ -4266,7 +4280,7 @@ class FeatureClusterer:
 
     def _row_key(self, b) -> tuple:
         """``relink_side_row_margin``: box ``b``'s bottom row less the horizon's row at its centre's
-        column (None without a horizon), and its raw bottom row."""
+        column (this frame's horizon; None without one), and its raw bottom row."""
         bottom = float(b[1] + b[3])
         rel = None
         if self._horizon is not None:
