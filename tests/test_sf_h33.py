@@ -1,10 +1,10 @@
 """Session 29 (issue #8, helper h33): ``relink_side_row_margin``.  A level horizon at row 40.  Two boats leave
-the view at the image's left edge at two depths (B at rows 98-102 first: 62 px under the horizon, 4 px high;
-then the camera moves the content 50 px left; then A at rows 58-62: 22 px under it); 3 s later a new cluster is
-born at the left edge on B's rows.  Its gap to A's expected box (34 px, vertical) is smaller than to B's (carried
-50 px out of the view: 43 px), so the relink's nearest-first pairs give it A's identity; with the margin, A
-(depth 5.5 against the new cluster's 15, B's 15.5) is not its candidate and it takes B's.  The row check
-``relink_dy_h`` is off here (it would refuse A outright at this short loss)."""
+the view at the image's left edge at two rows (B at rows 98-102 first: its bottom 62 px under the horizon; then
+the camera moves the content 50 px left; then A at rows 58-62: 22 px under it); 3 s later a new cluster is born
+at the left edge on B's rows (60 px under the horizon).  Its gap to A's expected box (34 px, vertical) is smaller
+than to B's (carried 50 px out of the view: 43 px), so the relink's nearest-first pairs give it A's identity;
+with the margin, A (38 px off in its row under the horizon, B 2 px) is not its candidate and it takes B's.  The
+row check ``relink_dy_h`` is off here (it would refuse A outright at this short loss)."""
 
 import numpy as np
 
@@ -49,20 +49,20 @@ def test_off_by_default_the_nearer_lost_identity_is_taken():
     assert born == [ids["A"]]
 
 
-def test_relink_side_row_margin_takes_the_identity_lost_at_its_depth():
-    ids, born = run(relink_side_row_margin=0.7)
+def test_relink_side_row_margin_takes_the_identity_lost_at_its_row():
+    ids, born = run(relink_side_row_margin=20.0)
     assert born == [ids["B"]]
 
 
 def test_relink_side_row_margin_within_the_margin_or_without_a_horizon_the_nearer_is_taken():
-    ids, born = run(relink_side_row_margin=1.2)  # |ln| 0.03 (B) and 1.0 (A): within 1.2 of each other
+    ids, born = run(relink_side_row_margin=40.0)  # 2 px (B) and 38 px (A): within 40 px of each other
     assert born == [ids["A"]]
-    ids, born = run(horizon=False, relink_side_row_margin=0.7)
+    ids, born = run(horizon=False, relink_side_row_margin=20.0)
     assert born == [ids["A"]]
 
 
 def test_relink_side_row_margin_off_on_infrared_frames_unless_asked():
-    ids, born = run(ir=True, relink_side_row_margin=0.7)
+    ids, born = run(ir=True, relink_side_row_margin=20.0)
     assert born == [ids["A"]]
-    ids, born = run(ir=True, relink_side_row_margin=0.7, relink_side_row_ir=True)
+    ids, born = run(ir=True, relink_side_row_margin=20.0, relink_side_row_ir=True)
     assert born == [ids["B"]]

@@ -2938,18 +2938,19 @@ class ClusterParams:
     ``lost_dup_iou``, ``relink_area_at_loss``, ``relink_retry_s``, ``relink_app_margin`` on visible frames
     only, in the style of ``wake_track_ir``).  They change nothing while their step is off.
 
-    ``relink_side_row_margin`` (session 29, h33; no unit: a difference of natural logs; 0: off; needs a
-    horizon): a new cluster with two or more lost identities in its relink gate that were lost at the
-    image's left or right edge takes none whose depth at the loss is further from its own, by more than this
-    margin, than the nearest one's.  The depth is the box's bottom row less the horizon's row at its centre,
-    over the box's height (for the lost identity: its box at the loss, in the frame of the loss, over the
-    median of its last heights clear of the side edges, ``relink_side_h_n``); compared as ``|ln(q_new /
-    q_lost)|``.  It does not change with the zoom or with the boat's range.  The relink's pairs go nearest
-    first, on a gap that the boats' own motion out of view (~200 px in 25 s) dominates, to an expected box
-    whose row, carried 25 s outside the image by the frames' homographies, drifts by 30-50 px.  At the pan's
-    return on sim ``pan`` 80 (34.8 s, zoom 1.6) the rib's new cluster (depth 8.5) took the fishing boat's
-    identity (1.8 at the loss, gap 177 px) rather than the rib's (10.0, gap 196 px), and the fishing boat
-    the rib's at 38.8 s.  ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
+    ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
+    with two or more lost identities in its relink gate that were lost at the image's left or right edge
+    takes none whose row under the horizon at the loss (its box's bottom less the horizon's row at its
+    centre, in the frame of the loss) lies further from the new cluster's own, by more than this margin,
+    than the nearest one's.  The relink's pairs go nearest first, on a gap that the boats' own motion out of
+    view (~200 px in 25 s) dominates, to an expected box whose row, carried 25 s outside the image by the
+    frames' homographies, drifts by 30-50 px; the row under the horizon at the loss was kept to a few px.
+    At the pan's return on sim ``pan`` 80 (34.8 s) the rib's new cluster (76 px under the horizon) took
+    the fishing boat's identity (29 px at the loss, gap 177 px) rather than the rib's (66 px, gap 196 px),
+    and the fishing boat the rib's at 38.8 s; on ``pan`` 91 and 94 the rib came back 1 px from its row at the
+    loss, the fishing boat's 28-39 px off.  Not scaled by the zoom: there the zoom read 1.6 against 1.0 at
+    the loss, and the rows matched unscaled (scaled, the rib's and the fishing boat's tied).
+    ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
 
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
@@ -3269,7 +3270,7 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
-        self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row, zoom, height) at the loss (relink_side_row_margin)
+        self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -4027,9 +4028,9 @@ class FeatureClusterer:
                 best[i] = min(best.get(i, np.inf), a)
             pairs = [q for q in pairs if app_d.get((q[2], q[3]), -np.inf) <= best.get(q[2], np.inf) + p.relink_app_margin]
         if side_row_on and len(side_row) > 1:
-            # relink_side_row_margin: of a new cluster's lost identities lost at the side, those whose depth (rows
-            # under the horizon per box height) at the loss is more than the margin (|ln|) further from the new
-            # cluster's than the nearest one's are not its candidates
+            # relink_side_row_margin: of a new cluster's lost identities lost at the side, those whose row under the
+            # horizon at the loss lies more than the margin further from the new cluster's than the nearest one's
+            # are not its candidates
             by_i = {}
             for (i, k), rk in side_row.items():
                 by_i.setdefault(i, []).append((k, rk))
@@ -4037,19 +4038,17 @@ class FeatureClusterer:
             for i, lst in by_i.items():
                 if len(lst) < 2:
                     continue
-                me = self._row_key(boxes[i])
-                if me[0] is None or me[0] <= 0 or boxes[i][3] < 1:
+                me = self._row_key(boxes[i])[0]
+                if me is None:
                     continue
-                q = np.log(me[0] / float(boxes[i][3]))
-                dr = {k: abs(q - np.log(rk[0] / rk[3])) for k, rk in lst
-                      if rk[0] is not None and rk[0] > 0 and rk[3] >= 1}
+                dr = {k: abs(me - rk[0]) for k, rk in lst if rk[0] is not None}
                 if len(dr) < 2:
                     continue
                 lim = min(dr.values()) + p.relink_side_row_margin
                 drop.update((i, k) for k, r in dr.items() if r > lim)
                 if _H33_DEBUG:
-                    print("H33", round(snap.t_s, 2), int(cids[i]), boxes[i].round().tolist(), round(float(q), 2),
-                          {k: round(float(r), 2) for k, r in dr.items()}, round(self._zoom, 3),
+                    print("H33", round(snap.t_s, 2), int(cids[i]), boxes[i].round().tolist(), round(float(me), 1),
+                          {k: round(float(r), 1) for k, r in dr.items()}, round(self._zoom, 3),
                           [(k, [round(x, 1) for x in rk]) for k, rk in lst])
             if drop:
                 pairs = [q for q in pairs if (q[2], q[3]) not in drop]
@@ -4193,10 +4192,7 @@ class FeatureClusterer:
                     else:
                         self._lost_side.discard(k)
                 if p.relink_side_row_margin > 0:  # session 29 (h33): its row at the loss, not the carried one's
-                    hw = self._whole_h.get(k)
-                    he = (float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw])) if hw
-                          else float(self._lost[k][1][3]))
-                    self._lost_row[k] = self._row_key(self._lost[k][1]) + (self._zoom, he)
+                    self._lost_row[k] = self._row_key(self._lost[k][1])
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
                         or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
