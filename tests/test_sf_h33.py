@@ -66,3 +66,38 @@ def test_relink_side_row_margin_off_on_infrared_frames_unless_asked():
     assert born == [ids["A"]]
     ids, born = run(ir=True, relink_side_row_margin=20.0, relink_side_row_ir=True)
     assert born == [ids["B"]]
+
+
+# relink_app_min_w_px: an identity lost as a sliver at the image's edge keeps no look
+
+from _feature_snap import dark_box_sea  # noqa: E402
+
+SHAPE = (160, 240)
+HULL = (0, 60, 4, 72)  # a dark hull cut by the left edge: 4 x 12 px
+
+
+def run_sliver(**kw):
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0, **kw}))
+    tr = None
+    for k in range(6):
+        _, tr = c.update(snap([[1, 62], [3, 70]], [[-5, 0], [-5, 0]], 0.1 * k, k, [1, 2]), dark_box_sea(SHAPE, HULL, k))
+    assert len(tr) == 1
+    ident = int(tr.ids[0])
+    assert 2 <= tr.boxes[0][2] < 4  # a 2 px sliver
+    c.update(snap(NONE, NONE, 0.6, 6, []), dark_box_sea(SHAPE, HULL, 6, boat=False))
+    assert ident in c._lost
+    return c, ident
+
+
+def test_relink_app_min_w_px_off_by_default_the_sliver_keeps_its_look():
+    p = ClusterParams()
+    assert p.relink_app_min_w_px == 0.0 and p.relink_app_min_w_ir is False
+    c, ident = run_sliver()
+    assert c._lost_sig.get(ident) is not None
+
+
+def test_relink_app_min_w_px_the_sliver_keeps_no_look():
+    c, ident = run_sliver(relink_app_min_w_px=4.0)
+    assert c._lost_sig.get(ident) is None
+    c, ident = run_sliver(relink_app_min_w_px=2.0)  # not under 2 px: kept
+    assert c._lost_sig.get(ident) is not None

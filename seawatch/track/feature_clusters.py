@@ -2952,6 +2952,13 @@ class ClusterParams:
     the loss, and the rows matched unscaled (scaled, the rib's and the fishing boat's tied).
     ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
+    identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
+    relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
+    look.  On sim ``pan`` 95 the sailboat's identity, lost at the left edge as ``[0, 295, 2, 22]``, was
+    refused at the pan's return (31.3 s) by the look check to its own new cluster, which took the tug's.
+    ``relink_app_min_w_ir`` (False: visible frames only; True: infrared too).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3185,6 +3192,8 @@ class ClusterParams:
     relink_app_margin_ir: bool = False
     relink_side_row_margin: float = 0.0
     relink_side_row_ir: bool = False
+    relink_app_min_w_px: float = 0.0
+    relink_app_min_w_ir: bool = False
 
 
 import os as _os
@@ -4201,6 +4210,9 @@ class FeatureClusterer:
                 if p.relink_appearance:  # its look in the last frame it was seen
                     self._lost_sig[k] = (None if self._app_prev_img is None
                                          else appearance_signature(self._app_prev_img, b))
+                    if (p.relink_app_min_w_px > 0 and (p.relink_app_min_w_ir or not self._ir)
+                            and float(b[2]) < p.relink_app_min_w_px * self._zoom):
+                        self._lost_sig[k] = None  # session 29 (h33): a sliver's look is not its boat's
                 prev_cam = self._prev_camera
                 if prev_cam is not None:  # the directions of its last box's corners, and their rates
                     az, el = prev_cam.pixel_to_azel(np.array([b[0], b[0] + b[2]]), np.array([b[1], b[1] + b[3]]))
