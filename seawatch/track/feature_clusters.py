@@ -3196,10 +3196,6 @@ class ClusterParams:
     relink_app_min_w_ir: bool = False
 
 
-import os as _os
-_H33_DEBUG = bool(_os.environ.get('H33_DEBUG'))
-
-
 class FeatureClusterer:
     """Clusters of stable features as tracked objects (the tracking half of paper B).
 
@@ -4055,10 +4051,6 @@ class FeatureClusterer:
                     continue
                 lim = min(dr.values()) + p.relink_side_row_margin
                 drop.update((i, k) for k, r in dr.items() if r > lim)
-                if _H33_DEBUG:
-                    print("H33", round(snap.t_s, 2), int(cids[i]), boxes[i].round().tolist(), round(float(me), 1),
-                          {k: round(float(r), 1) for k, r in dr.items()}, round(self._zoom, 3),
-                          [(k, [round(x, 1) for x in rk]) for k, rk in lst])
             if drop:
                 pairs = [q for q in pairs if (q[2], q[3]) not in drop]
         done = set()
