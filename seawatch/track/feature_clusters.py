@@ -2944,7 +2944,7 @@ class ClusterParams:
     centre, in the frame of the loss) lies further from the new cluster's own, by more than this margin,
     than the nearest one's.  The relink's pairs go nearest first, on a gap that the boats' own motion out of
     view (~200 px in 25 s) dominates, to an expected box whose row, carried 25 s outside the image by the
-    frames' homographies, drifts by 30-50 px; the row under the horizon at the loss was kept to a few px.
+    frames' homographies, drifts by 30-60 px; the row under the horizon at the loss was kept to a few px.
     At the pan's return on sim ``pan`` 80 (34.8 s) the rib's new cluster (76 px under the horizon) took
     the fishing boat's identity (29 px at the loss, gap 177 px) rather than the rib's (66 px, gap 196 px),
     and the fishing boat the rib's at 38.8 s; on ``pan`` 91 and 94 the rib came back 1 px from its row at the
