@@ -2977,6 +2977,27 @@ class ClusterParams:
     IoU 0.25 with the next frame's joined box, which the ferry cluster's own box overlaps by 0.81); the older
     small cluster of a boat beside it then won the joined report by age, and kept it through the frame before's box.
 
+    ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
+    with two or more lost identities in its relink gate that were lost at the image's left or right edge
+    takes none whose row under the horizon at the loss (its box's bottom less the horizon's row at its
+    centre, in the frame of the loss) lies further from the new cluster's own, by more than this margin,
+    than the nearest one's.  The relink's pairs go nearest first, on a gap that the boats' own motion out of
+    view (~200 px in 25 s) dominates, to an expected box whose row, carried 25 s outside the image by the
+    frames' homographies, drifts by 30-60 px; the row under the horizon at the loss was kept to a few px.
+    At the pan's return on sim ``pan`` 80 (34.8 s) the rib's new cluster (76 px under the horizon) took
+    the fishing boat's identity (29 px at the loss, gap 177 px) rather than the rib's (66 px, gap 196 px),
+    and the fishing boat the rib's at 38.8 s; on ``pan`` 91 and 94 the rib came back 1 px from its row at the
+    loss, the fishing boat's 28-39 px off.  Not scaled by the zoom: there the zoom read 1.6 against 1.0 at
+    the loss, and the rows matched unscaled (scaled, the rib's and the fishing boat's tied).
+    ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
+
+    ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
+    identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
+    relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
+    look.  On sim ``pan`` 95 the sailboat's identity, lost at the left edge as ``[0, 295, 2, 22]``, was
+    refused at the pan's return (31.3 s) by the look check to its own new cluster, which took the tug's.
+    ``relink_app_min_w_ir`` (False: visible frames only; True: infrared too).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3209,6 +3230,10 @@ class ClusterParams:
     relink_retry_ir: bool = False
     relink_app_margin_ir: bool = False
     merge_id_now_iou_ir: float = 0.0
+    relink_side_row_margin: float = 0.0
+    relink_side_row_ir: bool = False
+    relink_app_min_w_px: float = 0.0
+    relink_app_min_w_ir: bool = False
 
 
 class FeatureClusterer:
@@ -3290,6 +3315,7 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
+        self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
         self._camera = None
         self._prev_camera = None
         self._zoom = 1.0
@@ -3957,6 +3983,8 @@ class FeatureClusterer:
         far_new = self._far_side(boxes) if (new or retry) else None  # far_id_px: each cluster in the far strip
         app_d = {}  # relink_app_margin: (new cluster, lost identity) -> appearance distance, where known
         size_ref = set()  # relink_hold_s: clusters within the gate of a lost identity in view
+        side_row = {}  # relink_side_row_margin: (new cluster, lost identity lost at the side) -> its row key at the loss
+        side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -4035,6 +4063,8 @@ class FeatureClusterer:
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
                     o = _iou(boxes[i], lb) if p.relink_iou_tie else 0.0
                     pairs.append((d, -o, i, k))
+                    if side_row_on and k in self._lost_side and k in self._lost_row:
+                        side_row[(i, k)] = self._lost_row[k]
         if p.relink_app_margin > 0 and (p.relink_app_margin_ir or not self._ir) and len(app_d) > 1:
             # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
             # more than the margin further away than the best-looking one are not its candidates
@@ -4042,6 +4072,27 @@ class FeatureClusterer:
             for (i, k), a in app_d.items():
                 best[i] = min(best.get(i, np.inf), a)
             pairs = [q for q in pairs if app_d.get((q[2], q[3]), -np.inf) <= best.get(q[2], np.inf) + p.relink_app_margin]
+        if side_row_on and len(side_row) > 1:
+            # relink_side_row_margin: of a new cluster's lost identities lost at the side, those whose row under the
+            # horizon at the loss lies more than the margin further from the new cluster's than the nearest one's
+            # are not its candidates
+            by_i = {}
+            for (i, k), rk in side_row.items():
+                by_i.setdefault(i, []).append((k, rk))
+            drop = set()
+            for i, lst in by_i.items():
+                if len(lst) < 2:
+                    continue
+                me = self._row_key(boxes[i])[0]
+                if me is None:
+                    continue
+                dr = {k: abs(me - rk[0]) for k, rk in lst if rk[0] is not None}
+                if len(dr) < 2:
+                    continue
+                lim = min(dr.values()) + p.relink_side_row_margin
+                drop.update((i, k) for k, r in dr.items() if r > lim)
+            if drop:
+                pairs = [q for q in pairs if (q[2], q[3]) not in drop]
         done = set()
         self._relinked_now = {}  # hand_over_relinked: identity relinked this frame -> (cluster index, its lost entries)
         retired = set()  # relink_retry_s: the young clusters' own identities given up for a lost one
@@ -4173,13 +4224,16 @@ class FeatureClusterer:
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 if p.relink_area_at_loss:
                     self._lost_a0[k] = (float(self._lost[k][1][2] * self._lost[k][1][3]), self._zoom)
-                if (p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0:
+                if ((p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0
+                        or p.relink_side_row_margin > 0):
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
                         self._lost_side.add(k)
                     else:
                         self._lost_side.discard(k)
+                if p.relink_side_row_margin > 0:  # session 29 (h33): its row at the loss, not the carried one's
+                    self._lost_row[k] = self._row_key(self._lost[k][1])
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
                         or p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0):
                     self._lost_zoom[k] = self._zoom
@@ -4188,6 +4242,9 @@ class FeatureClusterer:
                 if p.relink_appearance:  # its look in the last frame it was seen
                     self._lost_sig[k] = (None if self._app_prev_img is None
                                          else appearance_signature(self._app_prev_img, b))
+                    if (p.relink_app_min_w_px > 0 and (p.relink_app_min_w_ir or not self._ir)
+                            and float(b[2]) < p.relink_app_min_w_px * self._zoom):
+                        self._lost_sig[k] = None  # session 29 (h33): a sliver's look is not its boat's
                 prev_cam = self._prev_camera
                 if prev_cam is not None:  # the directions of its last box's corners, and their rates
                     az, el = prev_cam.pixel_to_azel(np.array([b[0], b[0] + b[2]]), np.array([b[1], b[1] + b[3]]))
@@ -4242,6 +4299,8 @@ class FeatureClusterer:
             self._relinked_alt = {k: v for k, v in self._relinked_alt.items() if k in self._relinked}
         if len(self._returned) > 2 * len(self._lost) + 16:  # bounded memory
             self._returned = {k: v for k, v in self._returned.items() if k in self._lost}
+        if len(self._lost_row) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_row = {k: v for k, v in self._lost_row.items() if k in self._lost}
         if len(self._lost_a0) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_a0 = {k: v for k, v in self._lost_a0.items() if k in self._lost}
         if len(self._lost_zoom) > 2 * len(self._lost) + 16:  # bounded memory
@@ -4258,6 +4317,20 @@ class FeatureClusterer:
             if len(self._lost_sig) > 2 * (len(self._lost) + len(self._relinked)) + 16:  # bounded memory
                 self._lost_sig = {k: v for k, v in self._lost_sig.items() if k in self._lost or k in self._relinked}
         return rep
+
+    def _row_key(self, b) -> tuple:
+        """``relink_side_row_margin``: box ``b``'s bottom row less the horizon's row at its centre's
+        column (this frame's horizon; None without one), and its raw bottom row."""
+        bottom = float(b[1] + b[3])
+        rel = None
+        if self._horizon is not None:
+            try:
+                r = float(np.asarray(self._horizon.row_at(np.array([float(b[0] + 0.5 * b[2])])), np.float64).reshape(-1)[0])
+            except Exception:  # noqa: BLE001 - any horizon without a usable row
+                r = float("nan")
+            if np.isfinite(r):
+                rel = bottom - r
+        return (rel, bottom)
 
     def _lost_dup(self, t: float) -> None:
         """``lost_dup_iou`` (session 27, h29): each identity lost this frame (time lost ``t``) and
@@ -4284,7 +4357,7 @@ class FeatureClusterer:
             j = best
             self._lost[j] = e
             del self._lost[k]
-            for dct in (self._lost_dir, self._lost_zoom, self._lost_v, self._lost_sig, self._lost_a0):
+            for dct in (self._lost_dir, self._lost_zoom, self._lost_v, self._lost_sig, self._lost_a0, self._lost_row):
                 if k in dct:
                     dct[j] = dct.pop(k)
                 else:
