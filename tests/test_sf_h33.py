@@ -42,10 +42,12 @@ def run(ir=False, horizon=True, new=([[2, 96], [10, 100]]), **kw):
     return ids, [int(r) for r in tr.ids]
 
 
-def test_off_by_default_the_nearer_lost_identity_is_taken():
+def test_default_on_and_off_the_nearer_lost_identity_is_taken():
     p = ClusterParams()
-    assert p.relink_side_row_margin == 0.0 and p.relink_side_row_ir is False
+    assert p.relink_side_row_margin == 20.0 and p.relink_side_row_ir is False  # on since session 29 (rule K)
     ids, born = run()
+    assert born == [ids["B"]]
+    ids, born = run(relink_side_row_margin=0.0)  # the step off: the nearer lost identity
     assert born == [ids["A"]]
 
 

@@ -22,8 +22,8 @@ def _merge(prev, keep_now_iou, keep_iou=0.3, counts=COUNT):
     return c.tolist(), b, groups
 
 
-def test_off_by_default_and_the_old_rule_keeps_the_oldest():
-    assert ClusterParams().merge_id_now_iou_ir == 0.0
+def test_default_and_the_old_rule_keeps_the_oldest():
+    assert ClusterParams().merge_id_now_iou_ir == 0.5  # on since session 29 (rule K); 0: the old rule below
     prev = {50: PREV_FERRY}
     assert _box_iou(JOINED, PREV_FERRY) < 0.3  # merge_id_keep_iou misses it
     c, b, groups = _merge(prev, 0.0)

@@ -3006,6 +3006,8 @@ class ClusterParams:
     ``far_cut_deep_px`` 24 (with the extractor's far-water pass, ``StableFeatureExtractor(far_px=12)``); and
     the identity steps ``lost_dup_iou`` 0.3, ``relink_area_at_loss``, ``relink_retry_s`` 1, ``relink_app_margin``
     0.5 and ``relink_hold_s`` 1, session 27's five on visible frames only (their ``*_ir`` switches False).
+    Session 29 (rule K, on never-run ``pan`` and ``ir`` seeds) turned on ``relink_side_row_margin`` 20 (visible
+    frames only) and ``merge_id_now_iou_ir`` 0.5.
     Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
@@ -3229,8 +3231,8 @@ class ClusterParams:
     relink_area_at_loss_ir: bool = False
     relink_retry_ir: bool = False
     relink_app_margin_ir: bool = False
-    merge_id_now_iou_ir: float = 0.0
-    relink_side_row_margin: float = 0.0
+    merge_id_now_iou_ir: float = 0.5
+    relink_side_row_margin: float = 20.0
     relink_side_row_ir: bool = False
     relink_app_min_w_px: float = 0.0
     relink_app_min_w_ir: bool = False
