@@ -837,6 +837,7 @@ class StableFeatureExtractor:
         self._h_prev = np.eye(3)
         self._far_row = None  # the working-image row where the far water (``far_px``) ends
         self._pred_tree = None  # (expected positions, their cKDTree) of the frame being processed
+        self._frame_pred = None  # (frame count, active slots, motion, expected positions, finite rows, finite positions)
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -871,9 +872,13 @@ class StableFeatureExtractor:
         kps = self._star.detect(grey)
         pred = None
         act = np.flatnonzero(self._alive)
+        self._frame_pred = None
         if self.prior_radius_px > 0 and len(act):
-            pred = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
-            pred = pred[np.isfinite(pred).all(axis=1)]
+            full = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
+            fin = np.flatnonzero(np.isfinite(full).all(axis=1))
+            pred = full[fin]
+            # kept for :meth:`_guided` of the same frame (the same active features and motion)
+            self._frame_pred = (self._n, act, self._h_prev, full, fin, pred)
             if not len(pred):
                 pred = None
         if band is not None and len(kps):
@@ -1136,11 +1141,21 @@ class StableFeatureExtractor:
         n = len(desc)
         nn = np.full((n, 2), -1, np.int64)
         dist = np.full((n, 2), np.inf, np.float32)
-        pred = _apply_h(self._h_prev, self._xy[act])
-        fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+        fp, self._frame_pred = self._frame_pred, None
+        if fp is not None and fp[0] == self._n and fp[2] is self._h_prev and np.array_equal(fp[1], act):
+            # the expected positions :meth:`_keypoints` computed this frame, and their tree
+            # when :meth:`_priority` built one (the same points: the same tree)
+            pred, fin, pfin = fp[3:]
+            tree = self._pred_tree[1] if self._pred_tree is not None and self._pred_tree[0] is pfin else None
+        else:
+            pred = _apply_h(self._h_prev, self._xy[act])
+            fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+            tree = None
         if len(fin) == 0:
             return nn, dist
-        pairs = cKDTree(kxy).sparse_distance_matrix(cKDTree(pred[fin]), radius_px, output_type="ndarray")
+        if tree is None:
+            tree = cKDTree(pred[fin])
+        pairs = cKDTree(kxy).sparse_distance_matrix(tree, radius_px, output_type="ndarray")
         if len(pairs) == 0:
             return nn, dist
         qi = pairs["i"].astype(np.int64)
