@@ -881,10 +881,12 @@ class StableFeatureExtractor:
             self._frame_pred = (self._n, act, self._h_prev, full, fin, pred)
             if not len(pred):
                 pred = None
+        kxy = _kp_xy(kps) if kps else np.zeros((0, 2))
+        sel = None  # the keypoints outside the band (indices into ``kps``), all when None
         if band is not None and len(kps):
-            y = _kp_xy(kps)[:, 1]
-            kps = [kps[i] for i in np.flatnonzero(~((band[0] <= y) & (y < band[1])))]
-        main = self._describe_main(grey, kps, pred)
+            y = kxy[:, 1]
+            sel = np.flatnonzero(~((band[0] <= y) & (y < band[1])))
+        main = self._describe_main(grey, kps, kxy, sel, pred)
         out = [(*main, np.zeros(len(main[0]), bool))]
         if band is not None:
             out.append(self._describe_band(grey, band, pred))
@@ -898,11 +900,17 @@ class StableFeatureExtractor:
         d, _ = self._pred_tree[1].query(xy, k=1, distance_upper_bound=self.prior_radius_px)
         return np.isfinite(d)
 
-    def _describe_main(self, grey: np.ndarray, kps, pred):
-        if not kps:
+    def _describe_main(self, grey: np.ndarray, kps, kxy, sel, pred):
+        """The main pass's keypoints ``kps`` (positions ``kxy``), those of indices ``sel`` only
+        when given, selected and described."""
+        if sel is not None:
+            xy = kxy[sel]
+            resp = np.fromiter((kps[i].response for i in sel.tolist()), np.float64, len(sel))
+        else:
+            xy = kxy
+            resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
+        if not len(xy):
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
-        xy = _kp_xy(kps)
-        resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
         priority = self._priority(xy, pred, self.max_keypoints)
         keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
         # describe on a smaller copy when asked: SIFT's fixed cost (its Gaussian layers) and
@@ -915,8 +923,9 @@ class StableFeatureExtractor:
                              interpolation=cv2.INTER_AREA)
         sc = self.descriptor_scale * ds
         dxy = ((xy[keep] + 0.5) * ds - 0.5).tolist()
+        src = keep if sel is None else sel[keep]  # indices into ``kps``
         kps = [cv2.KeyPoint(p[0], p[1], kps[i].size * sc, kps[i].angle, r, kps[i].octave)
-               for p, i, r in zip(dxy, keep.tolist(), resp[keep].tolist())]
+               for p, i, r in zip(dxy, src.tolist(), resp[keep].tolist())]
         kps, desc = self._sift.compute(img, kps)
         if desc is None or not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
