@@ -3612,7 +3612,7 @@ class FeatureClusterer:
             elif p.box_disp_q > 0:  # the median of the members that moved farthest
                 ln = np.hypot(dm[mem, 0], dm[mem, 1])
                 ref = mem[np.argsort(ln, kind="stable")[int(np.floor(p.box_disp_q * len(mem))):]]
-            med = np.array([np.median(dm[ref, 0]), np.median(dm[ref, 1])])
+            med = np.array([_median_of(dm[ref, 0]), _median_of(dm[ref, 1])])  # np.median's values
             L = float(np.hypot(*med))
             if L < p.box_disp_min_px:
                 continue
