@@ -1183,8 +1183,15 @@ class StableFeatureExtractor:
                   - 2.0 * (desc[one] @ a.T))
             d2[np.arange(len(one)), nn[one, 0]] = np.inf
             if sep > 0:
-                gap = np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)
-                d2[gap <= sep] = np.inf
+                # np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)'s values
+                # (the root of dx * dx + dy * dy), without its (one, act, 2) temporary
+                p1 = pred[nn[one, 0]]
+                gx = pred[None, :, 0] - p1[:, 0, None]
+                gy = pred[None, :, 1] - p1[:, 1, None]
+                gx *= gx
+                gy *= gy
+                gx += gy
+                d2[np.sqrt(gx, out=gx) <= sep] = np.inf
             dist[one, 1] = np.maximum(d2.min(axis=1), 0.0)
         near = self.near_resolve_px * self._scale
         if near > 0:
