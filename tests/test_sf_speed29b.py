@@ -34,7 +34,7 @@ def test_median_of_same_values():
 
 
 class _OldExtractor(StableFeatureExtractor):
-    """The extractor's main pass and guided matching as at main 8c0c581."""
+    """The extractor's main pass and guided matching as at main 8c0c581 (copied)."""
 
     def _keypoints(self, grey, band=None):
         kps = self._star.detect(grey)
@@ -79,8 +79,49 @@ class _OldExtractor(StableFeatureExtractor):
         return xy, size, np.ascontiguousarray(desc, np.float32)
 
     def _guided(self, desc, act, kxy, radius_px):
-        self._frame_pred = None  # the old path: positions and tree made again
-        return super()._guided(desc, act, kxy, radius_px)
+        """Nearest and second-nearest (index into ``act``, squared distance) among the active
+        features expected within ``radius_px`` of each keypoint (see :meth:`_match`)."""
+        n = len(desc)
+        nn = np.full((n, 2), -1, np.int64)
+        dist = np.full((n, 2), np.inf, np.float32)
+        pred = ft._apply_h(self._h_prev, self._xy[act])
+        fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+        if len(fin) == 0:
+            return nn, dist
+        pairs = ft.cKDTree(kxy).sparse_distance_matrix(ft.cKDTree(pred[fin]), radius_px, output_type="ndarray")
+        if len(pairs) == 0:
+            return nn, dist
+        qi = pairs["i"].astype(np.int64)
+        ai = fin[pairs["j"].astype(np.int64)]
+        sep = self.ratio_distinct_px * self._scale
+        if sep > 0:
+            ft._best_two_distinct(desc, self._desc, act, qi, ai, pred, sep * sep, nn, dist)
+        else:
+            ft._best_two(desc, self._desc, act, qi, ai, nn, dist)
+        # one candidate (or none at a distinct place): the second distance is to the nearest
+        # other active feature anywhere (beyond ``ratio_distinct_px`` of the nearest)
+        one = np.flatnonzero((nn[:, 0] >= 0) & (nn[:, 1] < 0))
+        if len(one):
+            a = self._desc[act]
+            d2 = (np.einsum("ij,ij->i", desc[one], desc[one])[:, None] + np.einsum("ij,ij->i", a, a)[None, :]
+                  - 2.0 * (desc[one] @ a.T))
+            d2[np.arange(len(one)), nn[one, 0]] = np.inf
+            if sep > 0:
+                gap = np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)
+                d2[gap <= sep] = np.inf
+            dist[one, 1] = np.maximum(d2.min(axis=1), 0.0)
+        near = self.near_resolve_px * self._scale
+        if near > 0:
+            q = ft.match_quality(dist[:, 0], dist[:, 1])
+            fail = (nn[:, 0] >= 0) & (q < self.guided_min_quality)
+            if fail.any():
+                sel = fail[qi]
+                amb = 1.0 / max(1.0 - self.guided_min_quality, 1e-6) ** 2
+                nn2, dist2 = nn.copy(), dist.copy()
+                ft._near_resolve(desc, self._desc, act, qi[sel], ai[sel], pred, np.ascontiguousarray(kxy, np.float64),
+                              near * near, amb, nn2, dist2)
+                nn[fail], dist[fail] = nn2[fail], dist2[fail]
+        return nn, dist
 
 
 def _state(e):
