@@ -837,6 +837,7 @@ class StableFeatureExtractor:
         self._h_prev = np.eye(3)
         self._far_row = None  # the working-image row where the far water (``far_px``) ends
         self._pred_tree = None  # (expected positions, their cKDTree) of the frame being processed
+        self._frame_pred = None  # (frame count, active slots, motion, expected positions, finite rows, finite positions)
 
     def _grow(self, need: int) -> None:
         if need <= self._cap:
@@ -871,15 +872,21 @@ class StableFeatureExtractor:
         kps = self._star.detect(grey)
         pred = None
         act = np.flatnonzero(self._alive)
+        self._frame_pred = None
         if self.prior_radius_px > 0 and len(act):
-            pred = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
-            pred = pred[np.isfinite(pred).all(axis=1)]
+            full = _apply_h(self._h_prev, self._xy[act])  # the camera keeps its motion
+            fin = np.flatnonzero(np.isfinite(full).all(axis=1))
+            pred = full[fin]
+            # kept for :meth:`_guided` of the same frame (the same active features and motion)
+            self._frame_pred = (self._n, act, self._h_prev, full, fin, pred)
             if not len(pred):
                 pred = None
+        kxy = _kp_xy(kps) if kps else np.zeros((0, 2))
+        sel = None  # the keypoints outside the band (indices into ``kps``), all when None
         if band is not None and len(kps):
-            y = _kp_xy(kps)[:, 1]
-            kps = [kps[i] for i in np.flatnonzero(~((band[0] <= y) & (y < band[1])))]
-        main = self._describe_main(grey, kps, pred)
+            y = kxy[:, 1]
+            sel = np.flatnonzero(~((band[0] <= y) & (y < band[1])))
+        main = self._describe_main(grey, kps, kxy, sel, pred)
         out = [(*main, np.zeros(len(main[0]), bool))]
         if band is not None:
             out.append(self._describe_band(grey, band, pred))
@@ -893,11 +900,17 @@ class StableFeatureExtractor:
         d, _ = self._pred_tree[1].query(xy, k=1, distance_upper_bound=self.prior_radius_px)
         return np.isfinite(d)
 
-    def _describe_main(self, grey: np.ndarray, kps, pred):
-        if not kps:
+    def _describe_main(self, grey: np.ndarray, kps, kxy, sel, pred):
+        """The main pass's keypoints ``kps`` (positions ``kxy``), those of indices ``sel`` only
+        when given, selected and described."""
+        if sel is not None:
+            xy = kxy[sel]
+            resp = np.fromiter((kps[i].response for i in sel.tolist()), np.float64, len(sel))
+        else:
+            xy = kxy
+            resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
+        if not len(xy):
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
-        xy = _kp_xy(kps)
-        resp = np.fromiter((k.response for k in kps), np.float64, len(kps))
         priority = self._priority(xy, pred, self.max_keypoints)
         keep = select_keypoints(xy, resp, grey.shape[:2], self.max_keypoints, self.grid_cells, priority)
         # describe on a smaller copy when asked: SIFT's fixed cost (its Gaussian layers) and
@@ -910,8 +923,9 @@ class StableFeatureExtractor:
                              interpolation=cv2.INTER_AREA)
         sc = self.descriptor_scale * ds
         dxy = ((xy[keep] + 0.5) * ds - 0.5).tolist()
+        src = keep if sel is None else sel[keep]  # indices into ``kps``
         kps = [cv2.KeyPoint(p[0], p[1], kps[i].size * sc, kps[i].angle, r, kps[i].octave)
-               for p, i, r in zip(dxy, keep.tolist(), resp[keep].tolist())]
+               for p, i, r in zip(dxy, src.tolist(), resp[keep].tolist())]
         kps, desc = self._sift.compute(img, kps)
         if desc is None or not kps:
             return np.zeros((0, 2)), np.zeros(0), np.zeros((0, _DESC_DIM), np.float32)
@@ -1136,11 +1150,21 @@ class StableFeatureExtractor:
         n = len(desc)
         nn = np.full((n, 2), -1, np.int64)
         dist = np.full((n, 2), np.inf, np.float32)
-        pred = _apply_h(self._h_prev, self._xy[act])
-        fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+        fp, self._frame_pred = self._frame_pred, None
+        if fp is not None and fp[0] == self._n and fp[2] is self._h_prev and np.array_equal(fp[1], act):
+            # the expected positions :meth:`_keypoints` computed this frame, and their tree
+            # when :meth:`_priority` built one (the same points: the same tree)
+            pred, fin, pfin = fp[3:]
+            tree = self._pred_tree[1] if self._pred_tree is not None and self._pred_tree[0] is pfin else None
+        else:
+            pred = _apply_h(self._h_prev, self._xy[act])
+            fin = np.flatnonzero(np.isfinite(pred).all(axis=1))
+            tree = None
         if len(fin) == 0:
             return nn, dist
-        pairs = cKDTree(kxy).sparse_distance_matrix(cKDTree(pred[fin]), radius_px, output_type="ndarray")
+        if tree is None:
+            tree = cKDTree(pred[fin])
+        pairs = cKDTree(kxy).sparse_distance_matrix(tree, radius_px, output_type="ndarray")
         if len(pairs) == 0:
             return nn, dist
         qi = pairs["i"].astype(np.int64)
@@ -1159,8 +1183,15 @@ class StableFeatureExtractor:
                   - 2.0 * (desc[one] @ a.T))
             d2[np.arange(len(one)), nn[one, 0]] = np.inf
             if sep > 0:
-                gap = np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)
-                d2[gap <= sep] = np.inf
+                # np.linalg.norm(pred[None, :, :] - pred[nn[one, 0]][:, None, :], axis=2)'s values
+                # (the root of dx * dx + dy * dy), without its (one, act, 2) temporary
+                p1 = pred[nn[one, 0]]
+                gx = pred[None, :, 0] - p1[:, 0, None]
+                gy = pred[None, :, 1] - p1[:, 1, None]
+                gx *= gx
+                gy *= gy
+                gx += gy
+                d2[np.sqrt(gx, out=gx) <= sep] = np.inf
             dist[one, 1] = np.maximum(d2.min(axis=1), 0.0)
         near = self.near_resolve_px * self._scale
         if near > 0:

@@ -301,8 +301,8 @@ def _far_open(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p) -> np.n
         rr = np.clip(r0[:, None] + off[None, :] - lo, 0, hi - lo - 1)
         return strip[rr, xs[:, None]]
 
-    sky_v = np.median(rows(sky), axis=1)
-    sea_v = np.median(rows(sea), axis=1)
+    sky_v = _row_medians_f32(rows(sky))  # np.median(..., axis=1)
+    sea_v = _row_medians_f32(rows(sea))
     tol = np.maximum(p.far_sky_tol, 0.25 * np.abs(sky_v - sea_v))
     ok = (np.abs(rows(near) - sky_v[:, None]) <= tol[:, None]).all(axis=1)
     if p.far_open_contrast > 0:
@@ -384,7 +384,7 @@ def _under_dark(image: np.ndarray, x: np.ndarray, horizon, zoom: float, p, dark:
 
     def rows(off):
         rr = np.clip(r0[:, None] + off[None, :] - lo, 0, hi - lo - 1)
-        return np.median(strip[rr, xs[:, None]], axis=1)
+        return _row_medians_f32(strip[rr, xs[:, None]])  # np.median(..., axis=1)
 
     sky_v, sea_v, under_v = rows(sky), rows(sea), rows(under)
     out = inside & (sea_v - under_v > dark)
@@ -1038,6 +1038,16 @@ def _median_sorted(v):
     if n % 2:
         return v[n // 2]
     return np.float32((v[n // 2 - 1] + v[n // 2]) / np.float32(2.0))
+
+
+@nb.njit(cache=True, nogil=True)
+def _row_medians_f32(a):
+    """``np.median(a, axis=1)`` of a 2-d float32 array with no NaN (the same values: the middle
+    one, or the two middle ones' float32 mean)."""
+    out = np.empty(a.shape[0], np.float32)
+    for r in range(a.shape[0]):
+        out[r] = _median_sorted(np.sort(a[r]))
+    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -3614,7 +3624,7 @@ class FeatureClusterer:
             elif p.box_disp_q > 0:  # the median of the members that moved farthest
                 ln = np.hypot(dm[mem, 0], dm[mem, 1])
                 ref = mem[np.argsort(ln, kind="stable")[int(np.floor(p.box_disp_q * len(mem))):]]
-            med = np.array([np.median(dm[ref, 0]), np.median(dm[ref, 1])])
+            med = np.array([_median_of(dm[ref, 0]), _median_of(dm[ref, 1])])  # np.median's values
             L = float(np.hypot(*med))
             if L < p.box_disp_min_px:
                 continue
