@@ -89,3 +89,29 @@ def test_acts_on_infrared_frames_only():
     assert _run(1.0, ir=True) > 0
     assert _run(1.0, ir=False) == 0
     assert _run(0.0, ir=True) == 0
+
+
+def test_minority_only_keeps_a_box_that_was_a_part_of_the_boat():
+    # the last box a sliver over three tug members (4 px tall): most members lie more than a height outside
+    xy, v = _members()
+    k = np.zeros(len(xy), np.int64)
+
+    def run(minority):
+        cl = FeatureClusterer(ClusterParams(box_anchor_far_h_ir=1.0, box_anchor_far_minority_ir=minority))
+        cl._ir = True
+        cl._cluster_boxes = {3: np.array([100.0, 278.0, 5.0, 4.0])}
+        cl._cluster_boxes_t = cl._cluster_boxes_now = 27
+        s = snap(xy, v, 2.8, 28, shape=(480, 640))
+        anchor = cl._box_anchor(s, np.array([3]), k, xy)
+        inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
+        return inb, cl._anchor_far_out(k, 1, inb, anchor, 1.0)
+
+    assert ClusterParams().box_anchor_far_minority_ir is False
+    inb, out = run(False)
+    assert 3 <= out.sum() < inb.sum() // 2  # the box would shrink to the members at and beside the sliver
+    inb, out = run(True)
+    np.testing.assert_array_equal(out, inb)  # the far members are the majority: they stay
+    # the ir 19 case (one far member against twelve inside) is unchanged by the minority rule
+    cl = _clusterer(1.0)
+    cl.params.box_anchor_far_minority_ir = True
+    np.testing.assert_array_equal(_inb(cl, *_members()), _inb(_clusterer(1.0), *_members()))

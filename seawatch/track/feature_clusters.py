@@ -2995,6 +2995,9 @@ class ClusterParams:
     frame, otherwise widens the box over both boats, and the next frame's anchor then takes the other boat
     (sim ``ir`` 19 at 2.8 s: a ferry feature 76 px right of the tug's 59 x 32 px box drew the box over both;
     from 2.9 s the tug's identity was on the ferry).
+    ``box_anchor_far_minority_ir`` (False: off): with it, those members leave only where they are fewer than the
+    box members inside that box (a few features of another object; where most lie outside, the last box was a
+    part of the boat, and the box may grow back: sim ``ir`` 13 at 35.8 s, the ferry's box held at 6 x 7 px).
 
     ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
     with two or more lost identities in its relink gate that were lost at the image's left or right edge
@@ -3256,6 +3259,7 @@ class ClusterParams:
     relink_app_min_w_px: float = 0.0
     relink_app_min_w_ir: bool = False
     box_anchor_far_h_ir: float = 0.0
+    box_anchor_far_minority_ir: bool = False
 
 
 class FeatureClusterer:
@@ -3753,7 +3757,10 @@ class FeatureClusterer:
         if not far.any():
             return inb
         n_in = np.bincount(k[inb & anchor], minlength=n)
-        far &= n_in[k] >= 2
+        ok = n_in >= 2
+        if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
+            ok &= np.bincount(k[far], minlength=n) < n_in
+        far &= ok[k]
         return inb & ~far
 
     def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
