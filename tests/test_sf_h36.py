@@ -113,5 +113,5 @@ def test_minority_only_keeps_a_box_that_was_a_part_of_the_boat():
     np.testing.assert_array_equal(out, inb)  # the far members are the majority: they stay
     # the ir 19 case (one far member against twelve inside) is unchanged by the minority rule
     cl = _clusterer(1.0)
-    cl.params.box_anchor_far_minority_ir = True
+    cl.params = ClusterParams(box_anchor_far_h_ir=1.0, box_anchor_far_minority_ir=True)
     np.testing.assert_array_equal(_inb(cl, *_members()), _inb(_clusterer(1.0), *_members()))
