@@ -2987,6 +2987,18 @@ class ClusterParams:
     IoU 0.25 with the next frame's joined box, which the ferry cluster's own box overlaps by 0.81); the older
     small cluster of a boat beside it then won the joined report by age, and kept it through the frame before's box.
 
+    Session 30 (h36, the tug's box drawn over the ferry on infrared): ``box_anchor_far_h_ir`` (0: off;
+    infrared frames only; in heights of the cluster's box of the frame before, ``box_keep_last``'s anchor):
+    a box member lying more than this many times that box's height outside it (in x or y, the box carried by
+    the camera motion) leaves the box when at least two of its cluster's box members lie inside that box.
+    One feature of another boat held in the same graph cluster, whose velocity passes ``box_dv_px_s`` for a
+    frame, otherwise widens the box over both boats, and the next frame's anchor then takes the other boat
+    (sim ``ir`` 19 at 2.8 s: a ferry feature 76 px right of the tug's 59 x 32 px box drew the box over both;
+    from 2.9 s the tug's identity was on the ferry).
+    ``box_anchor_far_minority_ir`` (False: off): with it, those members leave only where they are fewer than the
+    box members inside that box (a few features of another object; where most lie outside, the last box was a
+    part of the boat, and the box may grow back: sim ``ir`` 13 at 35.8 s, the ferry's box held at 6 x 7 px).
+
     ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
     with two or more lost identities in its relink gate that were lost at the image's left or right edge
     takes none whose row under the horizon at the loss (its box's bottom less the horizon's row at its
@@ -3246,6 +3258,8 @@ class ClusterParams:
     relink_side_row_ir: bool = False
     relink_app_min_w_px: float = 0.0
     relink_app_min_w_ir: bool = False
+    box_anchor_far_h_ir: float = 0.0
+    box_anchor_far_minority_ir: bool = False
 
 
 class FeatureClusterer:
@@ -3723,11 +3737,31 @@ class FeatureClusterer:
         with np.errstate(invalid="ignore"):
             inside = ((xy[:, 0] >= bb[:, 0]) & (xy[:, 0] <= bb[:, 0] + bb[:, 2])
                       & (xy[:, 1] >= bb[:, 1]) & (xy[:, 1] <= bb[:, 1] + bb[:, 3]))
-            if self.params.box_disp_two_far_h > 0:  # each member's distance outside that box, in its heights
+            if self.params.box_disp_two_far_h > 0 or (self._ir and self.params.box_anchor_far_h_ir > 0):
+                # each member's distance outside that box, in its heights
                 gx = np.maximum(np.maximum(bb[:, 0] - xy[:, 0], xy[:, 0] - bb[:, 0] - bb[:, 2]), 0.0)
                 gy = np.maximum(np.maximum(bb[:, 1] - xy[:, 1], xy[:, 1] - bb[:, 1] - bb[:, 3]), 0.0)
                 self._anchor_gap_h = np.maximum(gx, gy) / np.maximum(bb[:, 3], 1.0)
         return inside if inside.any() else None
+
+    def _anchor_far_out(self, k, n, inb, anchor, far_h):
+        """``box_anchor_far_h_ir`` (session 30, h36): the box members (``inb``, ``k`` their cluster
+        index, ``n`` clusters) lying more than ``far_h`` times their cluster's last box height outside
+        that box (``self._anchor_gap_h``, made by :meth:`_box_anchor`) leave the box, in the clusters
+        with at least two box members inside that box (``anchor``)."""
+        gh = self._anchor_gap_h
+        if gh is None or len(gh) != len(inb):
+            return inb
+        with np.errstate(invalid="ignore"):
+            far = inb & ~anchor & (gh > far_h)
+        if not far.any():
+            return inb
+        n_in = np.bincount(k[inb & anchor], minlength=n)
+        ok = n_in >= 2
+        if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
+            ok &= np.bincount(k[far], minlength=n) < n_in
+        far &= ok[k]
+        return inb & ~far
 
     def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
         """``params.split_dv_px_s``: the members of a cluster that move apart from the part
@@ -4747,6 +4781,8 @@ class FeatureClusterer:
                 dv = max(dv, p.box_dv_noise_k * self.noise_px_s)
             anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
             inb = _box_members(k, fv, n, dv, anchor)
+            if self._ir and p.box_anchor_far_h_ir > 0 and anchor is not None:
+                inb = self._anchor_far_out(k, n, inb, anchor, p.box_anchor_far_h_ir)
         else:
             inb = None
         if p.box_disp_s > 0:
