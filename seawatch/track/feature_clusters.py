@@ -3013,6 +3013,16 @@ class ClusterParams:
     the loss, and the rows matched unscaled (scaled, the rib's and the fishing boat's tied).
     ``relink_side_row_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_side_app_near_px`` (session 30, h38; px, times the zoom; 0: off): an identity lost at the
+    image's left or right edge whose expected box lies within this gap (box edge to box edge) of a new
+    cluster is not refused by the look (``relink_appearance``'s maximum or ``relink_app_margin``) for that
+    cluster: its look was taken from a box cut by the edge.  At the pan's return on sim ``pan`` 160 (31.3 s)
+    the sailboat's new cluster lay 11 px from the sailboat's expected box, but its look (0.87, lost as a
+    9 px wide box at the left edge) was 0.5 worse than the tug's (0.34, gap 369 px), so ``relink_app_margin``
+    left only the tug's identity; on ``pan`` 95 the sailboat's (gap 18 px, lost as a 2 px sliver) failed
+    ``relink_appearance_max`` outright.  The sailboat took the tug's identity and the tug the sailboat's.
+    ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3260,6 +3270,8 @@ class ClusterParams:
     relink_app_min_w_ir: bool = False
     box_anchor_far_h_ir: float = 0.0
     box_anchor_far_minority_ir: bool = False
+    relink_side_app_near_px: float = 0.0
+    relink_side_app_near_ir: bool = False
 
 
 class FeatureClusterer:
@@ -4031,6 +4043,7 @@ class FeatureClusterer:
         size_ref = set()  # relink_hold_s: clusters within the gate of a lost identity in view
         side_row = {}  # relink_side_row_margin: (new cluster, lost identity lost at the side) -> its row key at the loss
         side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
+        side_app_on = p.relink_side_app_near_px > 0 and (p.relink_side_app_near_ir or not self._ir)
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -4100,9 +4113,14 @@ class FeatureClusterer:
                     continue  # session 26 round 2 (H25, far_id_px): not across the far strip's line
                 if d <= gate:
                     n_log = len(self.relink_log)
-                    if p.relink_appearance and not self._looks_alike(k, i, cids, boxes, t, sig_new):
+                    # relink_side_app_near_px (session 30, h38): lost at the side, expected right here: its
+                    # look (from a box cut by the edge) refuses nothing
+                    near_side = (side_app_on and k in self._lost_side
+                                 and d <= p.relink_side_app_near_px * self._zoom)
+                    if p.relink_appearance and not near_side and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
-                    if p.relink_app_margin > 0 and p.relink_appearance and len(self.relink_log) > n_log:
+                    if (p.relink_app_margin > 0 and p.relink_appearance and not near_side
+                            and len(self.relink_log) > n_log):
                         app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
