@@ -3008,6 +3008,16 @@ class ClusterParams:
     refused at the pan's return (31.3 s) by the look check to its own new cluster, which took the tug's.
     ``relink_app_min_w_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_jump_back_iou_ir`` (session 30, h37; an IoU; 0: off; infrared frames only): a cluster that comes
+    back under its own identity ``r`` while ``r`` is lost (not reported the frame before: the graph kept
+    the cluster, its report dropped out) with its box away from ``r``'s expected box (IoU under 0.1) and on
+    another lost identity ``k``'s expected box (IoU at least this; of several, the largest) takes ``k``, of
+    any age (``relink_jump_iou`` needs the cluster reported the frame before and ``k`` older); ``r`` stays
+    lost where it was.  On sim ``ir`` 43 (13.4 s) and ``ir`` 14 (37.0 s) the sailboat's cluster, whose box
+    had grown to the cargo ship's width, came back after 1-2 s unreported with its box on the cargo ship
+    (IoU 0.9 / 0.5 with the cargo's identity lost 1.7 / 11.7 s before) and reported it under the
+    sailboat's identity.
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3246,6 +3256,7 @@ class ClusterParams:
     relink_side_row_ir: bool = False
     relink_app_min_w_px: float = 0.0
     relink_app_min_w_ir: bool = False
+    relink_jump_back_iou_ir: float = 0.0
 
 
 class FeatureClusterer:
@@ -3969,6 +3980,8 @@ class FeatureClusterer:
                 self._swapped.add(nid)
         if p.relink_jump_iou > 0 and self._prev_boxes and self._lost:
             self._jump_lost(carry, cids, boxes, rep, t)
+        if p.relink_jump_back_iou_ir > 0 and self._ir and len(self._lost) > 1:
+            self._jump_back(cids, boxes, rep, t)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -4412,6 +4425,40 @@ class FeatureClusterer:
             taken.add(best)
             if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
                 self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), int(cids[i]))
+            del self._lost[best]
+            self._lost_dir.pop(best, None)
+            self._lost_alt.pop(best, None)
+            self._lost_alt_dir.pop(best, None)
+
+    def _jump_back(self, cids, boxes, rep, t) -> None:
+        """``relink_jump_back_iou_ir`` (session 30): a known cluster reported under its own identity ``r``
+        while ``r`` is lost (it comes back), whose box lies away from ``r``'s expected box (IoU under 0.1)
+        and on another lost identity ``k``'s expected box (IoU at least ``relink_jump_back_iou_ir``; of
+        several, the largest; any age), takes ``k`` as a relink would; ``r`` stays lost (``rep`` and the
+        aliases are changed in place)."""
+        p = self.params
+        taken = set(int(x) for x in rep)
+        for i in range(len(cids)):
+            r = int(rep[i])
+            c = int(cids[i])
+            if c not in self._known or r not in self._lost or self._alias.get(c, c) != r:
+                continue
+            if _iou(boxes[i], self._lost[r][1]) >= 0.1:
+                continue  # back where it was expected
+            best, best_o = -1, p.relink_jump_back_iou_ir
+            for k, (_, lb, _) in self._lost.items():
+                if k == r or k in taken:
+                    continue
+                o = _iou(boxes[i], lb)
+                if o >= best_o:
+                    best, best_o = k, o
+            if best < 0:
+                continue
+            self._alias[c] = best
+            rep[i] = best
+            taken.add(best)
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
+                self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), c)
             del self._lost[best]
             self._lost_dir.pop(best, None)
             self._lost_alt.pop(best, None)
