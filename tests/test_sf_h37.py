@@ -70,3 +70,48 @@ def test_acts_on_infrared_frames_only_and_not_when_off():
     assert _calls(True, relink_jump_back_iou_ir=0.4) > 0
     assert _calls(False, relink_jump_back_iou_ir=0.4) == 0
     assert _calls(True) == 0
+
+
+def test_jump_back_guards_a_box_of_another_size_and_a_long_loss():
+    c = clusterer(relink_jump_back_iou_ir=0.4)
+    rep = np.array([4], np.int64)
+    c._jump_back(np.array([4]), np.array([[368.0, 240.0, 80.0, 11.0]]), rep, 13.4)  # 1.5x+ the cargo's area
+    assert rep.tolist() == [4] and 31 in c._lost
+    c = clusterer(relink_jump_back_iou_ir=0.4, relink_jump_back_area=0.0)  # no area check
+    rep = np.array([4], np.int64)
+    c._jump_back(np.array([4]), np.array([[368.0, 240.0, 80.0, 11.0]]), rep, 13.4)
+    assert rep.tolist() == [31]
+    c = clusterer(relink_jump_back_iou_ir=0.4)
+    rep = np.array([4], np.int64)
+    c._jump_back(np.array([4]), BACK, rep, 15.3)  # its own lost 3.1 s before: not a drop-out
+    assert rep.tolist() == [4] and 31 in c._lost
+
+
+# relink_area_med_n_ir: a small boat lost at a box grown for one frame keeps its identity for its own new cluster
+
+
+def _area_run(ir=True, **kw):
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0, **kw}))
+    a, v = [[40, 60], [48, 64], [44, 62]], [[3, 0]] * 3
+    w = [[30, 52], [70, 70], [40, 60], [48, 64], [44, 62], [56, 66]]  # the last box: 44 x 22 px (12 x 8 before)
+    e = np.zeros((0, 2))
+    tr = None
+    for k in range(8):
+        tr = c.update(snap(a, v, 0.1 * k, k, [1, 2, 3]), None, ir=ir)[1]
+    own = int(tr.ids[0])
+    c.update(snap(w, [[3, 0]] * 6, 0.8, 8, [4, 5, 1, 2, 3, 6]), None, ir=ir)
+    for k in range(9, 15):
+        c.update(snap(e, e, 0.1 * k, k, []), None, ir=ir)
+    assert own in c._lost
+    tr = c.update(snap([[41, 61], [47, 64], [44, 62]], v, 1.5, 15, [7, 8, 9]), None, ir=ir)[1]  # 10 x 7 px
+    return own, [int(r) for r in tr.ids]
+
+
+def test_area_med_off_by_default_and_on_infrared_only():
+    assert ClusterParams().relink_area_med_n_ir == 0
+    own, ids = _area_run()
+    assert own not in ids  # 70 px < 0.3 of the 968 px box at the loss
+    own, ids = _area_run(relink_area_med_n_ir=5)
+    assert ids == [own]  # the median of its last 5 boxes: 96 px
+    own, ids = _area_run(ir=False, relink_area_med_n_ir=5)
+    assert own not in ids
