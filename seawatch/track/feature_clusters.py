@@ -3021,6 +3021,10 @@ class ClusterParams:
     ``ir`` 19 at 36.2 s, is 1.8 times the lost box it overlaps).  ``relink_jump_back_s`` (3 s; 0: no check):
     only a cluster whose own identity was lost at most this long ago (a drop-out; on ``ir`` 15 at 29.0 s the
     ferry's cluster came back 17.5 s after its loss, over the ferry, on the cargo ship's expected box).
+    ``relink_jump_back_own_area`` (a ratio; 0: no check): only a cluster whose box now is within this ratio of
+    the area of its own identity's box at the loss (its box had already taken the other boat's size: ``ir`` 43,
+    14 at 1.06, 1.73; on ``ir`` 5 at 42.8 s the fishing boat's 13 x 12 px cluster came back 69 x 15 on the ferry
+    for a second, 6.6 times, and carried the ferry's identity back onto the fishing boat).
 
     ``relink_area_med_n_ir`` (session 30, h37; a count of frames; 0: off; infrared frames only): the relink's
     size check (``relink_min_area``) compares a new cluster's area with the median area of the lost identity's
@@ -3270,6 +3274,7 @@ class ClusterParams:
     relink_jump_back_iou_ir: float = 0.0
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
+    relink_jump_back_own_area: float = 0.0
     relink_area_med_n_ir: int = 0
 
 
@@ -4480,6 +4485,10 @@ class FeatureClusterer:
                 continue  # back where it was expected
             if p.relink_jump_back_s > 0 and t - self._lost[r][0] > p.relink_jump_back_s + 1e-9:
                 continue  # not a drop-out
+            if p.relink_jump_back_own_area > 0:
+                a1, a2 = float(boxes[i][2] * boxes[i][3]), float(self._lost[r][1][2] * self._lost[r][1][3])
+                if max(a1, a2) > p.relink_jump_back_own_area * max(min(a1, a2), 1e-6):
+                    continue  # its box is not the one it had at its loss
             best, best_o = -1, p.relink_jump_back_iou_ir
             for k, (_, lb, _) in self._lost.items():
                 if k == r or k in taken:
