@@ -115,3 +115,16 @@ def test_area_med_off_by_default_and_on_infrared_only():
     assert ids == [own]  # the median of its last 5 boxes: 96 px
     own, ids = _area_run(ir=False, relink_area_med_n_ir=5)
     assert own not in ids
+
+
+def test_jump_back_own_area_guard():
+    assert ClusterParams().relink_jump_back_own_area == 0.0
+    c = clusterer(relink_jump_back_iou_ir=0.4, relink_jump_back_own_area=2.0)
+    rep = np.array([4], np.int64)
+    c._jump_back(np.array([4]), BACK, rep, 13.4)  # its box at the loss (54 x 10) had the cargo's size: 1.06
+    assert rep.tolist() == [31]
+    c = clusterer(relink_jump_back_iou_ir=0.4, relink_jump_back_own_area=2.0)
+    c._lost[4] = (12.2, np.array([315.0, 248.0, 13.0, 12.0]), np.zeros(2))  # a small boat's box at the loss: 3.7x
+    rep = np.array([4], np.int64)
+    c._jump_back(np.array([4]), BACK, rep, 13.4)
+    assert rep.tolist() == [4] and 31 in c._lost
