@@ -3030,6 +3030,31 @@ class ClusterParams:
     refused at the pan's return (31.3 s) by the look check to its own new cluster, which took the tug's.
     ``relink_app_min_w_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_jump_back_iou_ir`` (session 30, h37; an IoU; 0: off; infrared frames only): a cluster that comes
+    back under its own identity ``r`` while ``r`` is lost (not reported the frame before: the graph kept
+    the cluster, its report dropped out) with its box away from ``r``'s expected box (IoU under 0.1) and on
+    another lost identity ``k``'s expected box (IoU at least this; of several, the largest) takes ``k``, of
+    any age (``relink_jump_iou`` needs the cluster reported the frame before and ``k`` older); ``r`` stays
+    lost where it was.  On sim ``ir`` 43 (13.4 s) and ``ir`` 14 (37.0 s) the sailboat's cluster, whose box
+    had grown to the cargo ship's width, came back after 1-2 s unreported with its box on the cargo ship
+    (IoU 0.9 / 0.5 with the cargo's identity lost 1.7 / 11.7 s before) and reported it under the
+    sailboat's identity.  ``relink_jump_back_area`` (1.5; a ratio; 0: no check): only onto a lost box of
+    an area within this ratio of the cluster's box (a joined box over two boats, ``ir`` 15 at 24.4 s and
+    ``ir`` 19 at 36.2 s, is 1.8 times the lost box it overlaps).  ``relink_jump_back_s`` (3 s; 0: no check):
+    only a cluster whose own identity was lost at most this long ago (a drop-out; on ``ir`` 15 at 29.0 s the
+    ferry's cluster came back 17.5 s after its loss, over the ferry, on the cargo ship's expected box).
+    ``relink_jump_back_own_area`` (a ratio; 0: no check): only a cluster whose box now is within this ratio of
+    the area of its own identity's box at the loss (its box had already taken the other boat's size: ``ir`` 43,
+    14 at 1.06, 1.73; on ``ir`` 5 at 42.8 s the fishing boat's 13 x 12 px cluster came back 69 x 15 on the ferry
+    for a second, 6.6 times, and carried the ferry's identity back onto the fishing boat).
+
+    ``relink_area_med_n_ir`` (session 30, h37; a count of frames; 0: off; infrared frames only): the relink's
+    size check (``relink_min_area``) compares a new cluster's area with the median area of the lost identity's
+    last this many reported boxes (times the zoom change squared) where that is smaller than its expected
+    box's: a small boat's box flickers on infrared between its hull, its mast and a grown box beside it, and
+    the box at the loss can be the largest of them.  On sim ``ir`` 41 (24.7 s) the sailboat's identity, lost at
+    a 17 x 17 px box (its boxes before: 8 x 17-19), was refused to its own 8 x 8 px cluster (< 0.3 of 289 px).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3272,6 +3297,11 @@ class ClusterParams:
     box_anchor_far_minority_ir: bool = False
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
+    relink_jump_back_iou_ir: float = 0.0
+    relink_jump_back_area: float = 1.5
+    relink_jump_back_s: float = 3.0
+    relink_jump_back_own_area: float = 0.0
+    relink_area_med_n_ir: int = 0
 
 
 class FeatureClusterer:
@@ -3353,6 +3383,8 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
+        self._area_hist: dict = {}  # relink_area_med_n_ir: reported identity -> [(area, zoom)] of its last boxes
+        self._lost_amed: dict = {}  # relink_area_med_n_ir: lost identity -> (median area of its last boxes, zoom)
         self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
         self._camera = None
         self._prev_camera = None
@@ -4015,6 +4047,8 @@ class FeatureClusterer:
                 self._swapped.add(nid)
         if p.relink_jump_iou > 0 and self._prev_boxes and self._lost:
             self._jump_lost(carry, cids, boxes, rep, t)
+        if p.relink_jump_back_iou_ir > 0 and self._ir and len(self._lost) > 1:
+            self._jump_back(cids, boxes, rep, t)
         present = set(int(r) for r in rep)
         if p.relink_alt_memory and p.relink_alt_s > 0:  # lost identities back through the label memory
             for k in present:
@@ -4100,6 +4134,9 @@ class FeatureClusterer:
                 if p.relink_area_at_loss and (p.relink_area_at_loss_ir or not self._ir) and k in self._lost_a0:  # session 27 (h29): not a coast's grown box
                     a0, z0 = self._lost_a0[k]
                     a_ref = min(a_ref, a0 * (self._zoom / max(z0, 1e-6)) ** 2)
+                if p.relink_area_med_n_ir > 0 and self._ir and k in self._lost_amed:  # session 30 (h37)
+                    am, zm = self._lost_amed[k]
+                    a_ref = min(a_ref, am * (self._zoom / max(zm, 1e-6)) ** 2)
                 if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * a_ref
                         and (not p.relink_area_same_zoom
                              or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
@@ -4288,6 +4325,10 @@ class FeatureClusterer:
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 if p.relink_area_at_loss:
                     self._lost_a0[k] = (float(self._lost[k][1][2] * self._lost[k][1][3]), self._zoom)
+                if p.relink_area_med_n_ir > 0 and self._ir and self._area_hist.get(k):
+                    ah = self._area_hist[k]
+                    self._lost_amed[k] = (float(np.median([a_ * self._zoom ** 2 / max(z_, 1e-6) ** 2 for a_, z_ in ah])),
+                                          self._zoom)
                 if ((p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0
                         or p.relink_side_row_margin > 0):
                     # session 23: lost at the left or right edge
@@ -4354,6 +4395,16 @@ class FeatureClusterer:
                         del hw[0]
             if len(self._whole_h) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
                 self._whole_h = {k: v for k, v in self._whole_h.items() if k in now or k in self._lost}
+        if p.relink_area_med_n_ir > 0 and self._ir:
+            # relink_area_med_n_ir: each reported identity's last areas
+            for k, b in now.items():
+                ah = self._area_hist.setdefault(k, [])
+                ah.append((float(b[2] * b[3]), float(self._zoom)))
+                if len(ah) > int(p.relink_area_med_n_ir):
+                    del ah[0]
+            if len(self._area_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
+                self._area_hist = {k: v for k, v in self._area_hist.items() if k in now or k in self._lost}
+                self._lost_amed = {k: v for k, v in self._lost_amed.items() if k in self._lost}
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
@@ -4464,6 +4515,50 @@ class FeatureClusterer:
             taken.add(best)
             if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
                 self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), int(cids[i]))
+            del self._lost[best]
+            self._lost_dir.pop(best, None)
+            self._lost_alt.pop(best, None)
+            self._lost_alt_dir.pop(best, None)
+
+    def _jump_back(self, cids, boxes, rep, t) -> None:
+        """``relink_jump_back_iou_ir`` (session 30): a known cluster reported under its own identity ``r``
+        while ``r`` is lost (it comes back), whose box lies away from ``r``'s expected box (IoU under 0.1)
+        and on another lost identity ``k``'s expected box (IoU at least ``relink_jump_back_iou_ir``; of
+        several, the largest; any age), takes ``k`` as a relink would; ``r`` stays lost (``rep`` and the
+        aliases are changed in place)."""
+        p = self.params
+        taken = set(int(x) for x in rep)
+        for i in range(len(cids)):
+            r = int(rep[i])
+            c = int(cids[i])
+            if c not in self._known or r not in self._lost or self._alias.get(c, c) != r:
+                continue
+            if _iou(boxes[i], self._lost[r][1]) >= 0.1:
+                continue  # back where it was expected
+            if p.relink_jump_back_s > 0 and t - self._lost[r][0] > p.relink_jump_back_s + 1e-9:
+                continue  # not a drop-out
+            if p.relink_jump_back_own_area > 0:
+                a1, a2 = float(boxes[i][2] * boxes[i][3]), float(self._lost[r][1][2] * self._lost[r][1][3])
+                if max(a1, a2) > p.relink_jump_back_own_area * max(min(a1, a2), 1e-6):
+                    continue  # its box is not the one it had at its loss
+            best, best_o = -1, p.relink_jump_back_iou_ir
+            for k, (_, lb, _) in self._lost.items():
+                if k == r or k in taken:
+                    continue
+                o = _iou(boxes[i], lb)
+                if p.relink_jump_back_area > 0:
+                    a1, a2 = float(boxes[i][2] * boxes[i][3]), float(lb[2] * lb[3])
+                    if max(a1, a2) > p.relink_jump_back_area * max(min(a1, a2), 1e-6):
+                        continue
+                if o >= best_o:
+                    best, best_o = k, o
+            if best < 0:
+                continue
+            self._alias[c] = best
+            rep[i] = best
+            taken.add(best)
+            if p.relink_min_s > 0 or p.relink_alt_s > 0:  # as a relink: given back if the cluster dies young
+                self._relinked[best] = (t, self._lost[best], self._lost_dir.get(best), c)
             del self._lost[best]
             self._lost_dir.pop(best, None)
             self._lost_alt.pop(best, None)
