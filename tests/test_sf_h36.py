@@ -21,8 +21,8 @@ def _members():
     return np.stack([x, y], axis=1), v
 
 
-def _clusterer(far_h, ir=True):
-    cl = FeatureClusterer(ClusterParams(box_anchor_far_h_ir=far_h))
+def _clusterer(far_h, ir=True, minority=False):
+    cl = FeatureClusterer(ClusterParams(box_anchor_far_h_ir=far_h, box_anchor_far_minority_ir=minority))
     cl._ir = ir
     cl._cluster_boxes = {3: LAST_BOX.copy()}
     cl._cluster_boxes_t = cl._cluster_boxes_now = 27
@@ -39,8 +39,9 @@ def _inb(cl, xy, v):
     return inb
 
 
-def test_off_by_default():
-    assert ClusterParams().box_anchor_far_h_ir == 0.0
+def test_on_by_default_since_session_30():
+    p = ClusterParams()  # rule L, session 30
+    assert p.box_anchor_far_h_ir == 1.0 and p.box_anchor_far_minority_ir is True
 
 
 def test_the_far_member_leaves_the_box_on_infrared():
@@ -69,7 +70,8 @@ def test_needs_two_members_inside_the_last_box():
 
 def _run(far_h, ir):
     """A two-group cluster through ``update``: returns how often ``_anchor_far_out`` ran."""
-    cl = FeatureClusterer(ClusterParams(box_anchor_far_h_ir=far_h, confirm_s=0.0, relink_s=0.0))
+    cl = FeatureClusterer(ClusterParams(box_anchor_far_h_ir=far_h, box_anchor_far_minority_ir=False, confirm_s=0.0,
+                                        relink_s=0.0))
     calls = []
     orig = cl._anchor_far_out
 
@@ -106,12 +108,11 @@ def test_minority_only_keeps_a_box_that_was_a_part_of_the_boat():
         inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
         return inb, cl._anchor_far_out(k, 1, inb, anchor, 1.0)
 
-    assert ClusterParams().box_anchor_far_minority_ir is False
+    assert ClusterParams().box_anchor_far_minority_ir is True  # the default since session 30
     inb, out = run(False)
     assert 3 <= out.sum() < inb.sum() // 2  # the box would shrink to the members at and beside the sliver
     inb, out = run(True)
     np.testing.assert_array_equal(out, inb)  # the far members are the majority: they stay
     # the ir 19 case (one far member against twelve inside) is unchanged by the minority rule
-    cl = _clusterer(1.0)
-    cl.params = ClusterParams(box_anchor_far_h_ir=1.0, box_anchor_far_minority_ir=True)
-    np.testing.assert_array_equal(_inb(cl, *_members()), _inb(_clusterer(1.0), *_members()))
+    np.testing.assert_array_equal(_inb(_clusterer(1.0, minority=True), *_members()),
+                                  _inb(_clusterer(1.0, minority=False), *_members()))

@@ -1,7 +1,7 @@
 """Session 30 (issue #8, helper h37): ``relink_jump_back_iou_ir``.  A known cluster that comes back under its own
 lost identity with its box on another lost identity's expected box (the sailboat's cluster back on the cargo ship,
 sim ``ir`` 43 at 13.4 s: the boxes below) takes that identity, of any age; its own stays lost where it was.  On
-infrared frames only; off by default."""
+infrared frames only; on by default since session 30 (rule L)."""
 
 import numpy as np
 
@@ -20,8 +20,9 @@ def clusterer(**kw):
     return c
 
 
-def test_off_by_default():
-    assert ClusterParams().relink_jump_back_iou_ir == 0.0
+def test_on_by_default_since_session_30():
+    p = ClusterParams()
+    assert p.relink_jump_back_iou_ir == 0.4 and p.relink_jump_back_own_area == 2.0 and p.relink_area_med_n_ir == 5
 
 
 def test_back_on_another_lost_box_takes_that_identity_of_any_age():
@@ -69,7 +70,7 @@ def _calls(ir, **kw):
 def test_acts_on_infrared_frames_only_and_not_when_off():
     assert _calls(True, relink_jump_back_iou_ir=0.4) > 0
     assert _calls(False, relink_jump_back_iou_ir=0.4) == 0
-    assert _calls(True) == 0
+    assert _calls(True, relink_jump_back_iou_ir=0.0) == 0
 
 
 def test_jump_back_guards_a_box_of_another_size_and_a_long_loss():
@@ -107,9 +108,9 @@ def _area_run(ir=True, **kw):
     return own, [int(r) for r in tr.ids]
 
 
-def test_area_med_off_by_default_and_on_infrared_only():
-    assert ClusterParams().relink_area_med_n_ir == 0
-    own, ids = _area_run()
+def test_area_med_on_by_default_off_when_0_and_infrared_only():
+    assert ClusterParams().relink_area_med_n_ir == 5  # the default since session 30
+    own, ids = _area_run(relink_area_med_n_ir=0)
     assert own not in ids  # 70 px < 0.3 of the 968 px box at the loss
     own, ids = _area_run(relink_area_med_n_ir=5)
     assert ids == [own]  # the median of its last 5 boxes: 96 px
@@ -118,7 +119,7 @@ def test_area_med_off_by_default_and_on_infrared_only():
 
 
 def test_jump_back_own_area_guard():
-    assert ClusterParams().relink_jump_back_own_area == 0.0
+    assert ClusterParams().relink_jump_back_own_area == 2.0  # the default since session 30
     c = clusterer(relink_jump_back_iou_ir=0.4, relink_jump_back_own_area=2.0)
     rep = np.array([4], np.int64)
     c._jump_back(np.array([4]), BACK, rep, 13.4)  # its box at the loss (54 x 10) had the cargo's size: 1.06

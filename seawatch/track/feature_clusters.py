@@ -3064,7 +3064,9 @@ class ClusterParams:
     the identity steps ``lost_dup_iou`` 0.3, ``relink_area_at_loss``, ``relink_retry_s`` 1, ``relink_app_margin``
     0.5 and ``relink_hold_s`` 1, session 27's five on visible frames only (their ``*_ir`` switches False).
     Session 29 (rule K, on never-run ``pan`` and ``ir`` seeds) turned on ``relink_side_row_margin`` 20 (visible
-    frames only) and ``merge_id_now_iou_ir`` 0.5.
+    frames only) and ``merge_id_now_iou_ir`` 0.5. Session 30 (rule L, on never-run ``pan`` 175-206 and ``ir``
+    47-54) turned on, all on infrared frames only, ``box_anchor_far_h_ir`` 1.0 with ``box_anchor_far_minority_ir``,
+    ``relink_jump_back_iou_ir`` 0.4 with ``relink_jump_back_own_area`` 2, and ``relink_area_med_n_ir`` 5.
     Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
@@ -3293,15 +3295,15 @@ class ClusterParams:
     relink_side_row_ir: bool = False
     relink_app_min_w_px: float = 0.0
     relink_app_min_w_ir: bool = False
-    box_anchor_far_h_ir: float = 0.0
-    box_anchor_far_minority_ir: bool = False
+    box_anchor_far_h_ir: float = 1.0
+    box_anchor_far_minority_ir: bool = True
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
-    relink_jump_back_iou_ir: float = 0.0
+    relink_jump_back_iou_ir: float = 0.4
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
-    relink_jump_back_own_area: float = 0.0
-    relink_area_med_n_ir: int = 0
+    relink_jump_back_own_area: float = 2.0
+    relink_area_med_n_ir: int = 5
 
 
 class FeatureClusterer:
