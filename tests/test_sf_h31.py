@@ -48,10 +48,14 @@ def test_lost_dup_switch_leaves_visible_frames():
 def test_area_at_loss_switch(ir):
     got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=True)
     assert got == a_id
-    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=False)
+    # session 30's relink_area_med_n_ir (on infrared by default) also compares with the boxes before the
+    # grown one; set to 0 here so that only relink_area_at_loss's switch is tested
+    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=False, relink_area_med_n_ir=0)
     assert got != a_id
-    got, a_id = h29._area_run(relink_area_at_loss=True)  # off on infrared frames by default
+    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_med_n_ir=0)  # off on infrared by default
     assert got != a_id
+    got, a_id = h29._area_run(relink_area_at_loss=True)  # the defaults: relinked by the median of its boxes
+    assert got == a_id
 
 
 def test_retry_switch(ir):
