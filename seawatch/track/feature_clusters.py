@@ -3030,8 +3030,10 @@ class ClusterParams:
     sim ``pan`` 153 the tug's last heights before its loss at the left edge (17.8 s) were 50, 14, 14, 54,
     54 px (boxes 29 px wide at x 4-9) against its 7-13 px hull, so at the pan's return (32.8 s) its new
     13 px cluster, 30 px from its expected box, was refused (median 50 > 3 x 13) and took a thin
-    identity lost there 20 s before.  ``relink_side_h_clear_ir`` (False: visible frames only; True:
-    infrared too).
+    identity lost there 20 s before.  Boxes grown in mid-frame still count: on ``pan`` 160 (15 px) the
+    sailboat's last heights became 69-75 px (grown on the motorboat) and its 25 px new cluster was refused;
+    a longer median (``relink_side_h_n`` 15) keeps both.  ``relink_side_h_clear_ir`` (False: visible frames
+    only; True: infrared too).
 
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
