@@ -3023,6 +3023,18 @@ class ClusterParams:
     ``relink_appearance_max`` outright.  The sailboat took the tug's identity and the tug the sailboat's.
     ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_side_h_clear_px`` (session 30, h40; px, times the zoom; 0: off, a box counts as clear of the
+    side edges 1 px from them): ``relink_side_h_ratio``'s heights of an identity are kept only from its
+    boxes at least this far from the image's left and right edges.  A boat leaving at the side edge is
+    cut to a few columns there, and its box, then 4-9 px from the edge, grows on the water beside it: on
+    sim ``pan`` 153 the tug's last heights before its loss at the left edge (17.8 s) were 50, 14, 14, 54,
+    54 px (boxes 29 px wide at x 4-9) against its 7-13 px hull, so at the pan's return (32.8 s) its new
+    13 px cluster, 30 px from its expected box, was refused (median 50 > 3 x 13) and took a thin
+    identity lost there 20 s before.  Boxes grown in mid-frame still count: on ``pan`` 160 (15 px) the
+    sailboat's last heights became 69-75 px (grown on the motorboat) and its 25 px new cluster was refused;
+    a longer median (``relink_side_h_n`` 15) keeps both.  ``relink_side_h_clear_ir`` (False: visible frames
+    only; True: infrared too).
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3299,6 +3311,8 @@ class ClusterParams:
     box_anchor_far_minority_ir: bool = True
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
+    relink_side_h_clear_px: float = 0.0
+    relink_side_h_clear_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
@@ -4389,8 +4403,11 @@ class FeatureClusterer:
         if p.relink_side_h_ratio > 0 and getattr(snap, "shape", None) is not None:
             # relink_side_h_ratio: each reported identity's last heights clear of the image's side edges
             w_img = float(snap.shape[1])
+            m_side = 1.0
+            if p.relink_side_h_clear_px > 0 and (p.relink_side_h_clear_ir or not self._ir):
+                m_side = max(1.0, p.relink_side_h_clear_px * self._zoom)  # session 30 (h40): clear by a margin
             for k, b in now.items():
-                if b[0] > 1.0 and b[0] + b[2] < w_img - 1.0 and b[3] > 0:
+                if b[0] > m_side and b[0] + b[2] < w_img - m_side and b[3] > 0:
                     hw = self._whole_h.setdefault(k, [])
                     hw.append((float(b[3]), float(self._zoom)))
                     if len(hw) > max(int(p.relink_side_h_n), 1):
