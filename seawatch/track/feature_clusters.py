@@ -3023,6 +3023,19 @@ class ClusterParams:
     ``relink_appearance_max`` outright.  The sailboat took the tug's identity and the tug the sailboat's.
     ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_predict_side_s`` (session 30, h39; seconds; 0: off): an identity lost at the image's left or
+    right edge moves on with its own last velocity (its direction's rate with the camera model, else its
+    own image velocity) for up to this many seconds after the loss, as ``relink_predict_s`` does for all
+    (the larger of the two applies): a boat pushed out of the view at the side by the pan or the zoom
+    goes on moving while out of it.  On sim ``pan`` 174 the motorboat (5 m/s at 300 m) left at the left
+    edge in the zoom-in at 20 s; its lost box, carried by the camera only, sat at x -286 while the boat
+    came back at 28.7 s at x 2, 333 px away (gate 282): "too far".  Only with the camera model
+    (``relink_camera``); the rates are a line fitted to the directions of its box's centre over the last
+    ``relink_predict_side_win_s`` (2) seconds, boxes clear of the edges, in azimuth only (its last velocity,
+    from a box cut by the edge or a cluster that slid onto the sailboat's mast, threw it 1100 px off; the
+    fitted elevation rate lifted it into the sky).  ``relink_predict_side_ir`` (False:
+    visible frames only; True: infrared too).
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3298,6 +3311,9 @@ class ClusterParams:
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_jump_back_iou_ir: float = 0.0
+    relink_predict_side_s: float = 0.0
+    relink_predict_side_ir: bool = False
+    relink_predict_side_win_s: float = 2.0
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 0.0
@@ -3383,6 +3399,7 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
+        self._dir_hist: dict = {}  # relink_predict_side_s: reported identity -> [(t, az, el)] of its box centre clear of the edges
         self._area_hist: dict = {}  # relink_area_med_n_ir: reported identity -> [(area, zoom)] of its last boxes
         self._lost_amed: dict = {}  # relink_area_med_n_ir: lost identity -> (median area of its last boxes, zoom)
         self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
@@ -3994,6 +4011,8 @@ class FeatureClusterer:
         # with the camera model, their directions are projected through this frame's camera
         fcam = self._camera if p.relink_camera else None
 
+        side_pred_on = p.relink_predict_side_s > 0 and (p.relink_predict_side_ir or not self._ir)
+
         def expect(lost, dirs):
             kept = {}
             for k, (tl, b, v) in lost.items():
@@ -4002,12 +4021,16 @@ class FeatureClusterer:
                     continue
                 d = dirs.get(k) if fcam is not None else None
                 nb_ = None
+                pred_s = p.relink_predict_s
+                if side_pred_on and k in self._lost_side:  # session 30 (h39): lost at the side, it moves on
+                    pred_s = max(pred_s, p.relink_predict_side_s)
                 if d is not None:
-                    el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
+                    el_s = min(t - tl, pred_s) if p.relink_predict else 0.0
+                    pred_s = p.relink_predict_s  # the carried box (no camera model): relink_predict_s only
                     u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
                     if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
                         nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
-                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
+                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= pred_s else None), v)
             return kept
 
         self._lost = expect(self._lost, self._lost_dir)
@@ -4330,7 +4353,7 @@ class FeatureClusterer:
                     self._lost_amed[k] = (float(np.median([a_ * self._zoom ** 2 / max(z_, 1e-6) ** 2 for a_, z_ in ah])),
                                           self._zoom)
                 if ((p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0
-                        or p.relink_side_row_margin > 0):
+                        or p.relink_side_row_margin > 0 or p.relink_predict_side_s > 0):
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
@@ -4360,6 +4383,13 @@ class FeatureClusterer:
                         a2, e2 = prev_cam.pixel_to_azel(np.array([c[0], c[0] + v[0]]), np.array([c[1], c[1] + v[1]]))
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
+                    if side_pred_on and k in self._lost_side:
+                        # relink_predict_side_s (session 30, h39): the rates fitted to its centre's directions over
+                        # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
+                        # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
+                        r_ = self._dir_rate(k, t)
+                        if r_ is not None:
+                            daz, del_ = r_, 0.0  # a boat keeps its row (its range): azimuth only
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
@@ -4405,6 +4435,20 @@ class FeatureClusterer:
             if len(self._area_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
                 self._area_hist = {k: v for k, v in self._area_hist.items() if k in now or k in self._lost}
                 self._lost_amed = {k: v for k, v in self._lost_amed.items() if k in self._lost}
+        if side_pred_on and fcam is not None and now and getattr(snap, "shape", None) is not None:
+            # relink_predict_side_s: each reported identity's centre directions, boxes clear of the edges
+            w_img = float(snap.shape[1])
+            ks = [k for k, b in now.items() if b[0] > 1.0 and b[0] + b[2] < w_img - 1.0]
+            if ks:
+                cb = np.array([now[k] for k in ks], np.float64)
+                az_, el_ = fcam.pixel_to_azel(cb[:, 0] + 0.5 * cb[:, 2], cb[:, 1] + 0.5 * cb[:, 3])
+                for k, a_, e_ in zip(ks, np.atleast_1d(az_).tolist(), np.atleast_1d(el_).tolist()):
+                    dq = self._dir_hist.setdefault(k, collections.deque())
+                    dq.append((t, a_, e_))
+                    while dq and dq[0][0] < t - p.relink_predict_side_win_s - 1e-9:
+                        dq.popleft()
+            if len(self._dir_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
+                self._dir_hist = {k: v for k, v in self._dir_hist.items() if k in now or k in self._lost}
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
@@ -4597,6 +4641,24 @@ class FeatureClusterer:
         back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
         cam = (c - back) / max(dt, 1e-6)
         return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
+
+    def _dir_rate(self, k, t):
+        """``relink_predict_side_s``: identity ``k``'s azimuth rate (deg/s),
+        a least-squares line through its box centre's directions over the last ``relink_predict_side_win_s``
+        seconds before ``t``; None with fewer than 3 of them or spanning under half that time."""
+        dq = self._dir_hist.get(k)
+        w = self.params.relink_predict_side_win_s
+        if not dq:
+            return None
+        a = np.array([q for q in dq if q[0] >= t - w - 1e-9], np.float64)
+        if len(a) < 3 or a[-1, 0] - a[0, 0] < 0.5 * w:
+            return None
+        ts = a[:, 0] - a[:, 0].mean()
+        az = (a[:, 1] - a[0, 1] + 180.0) % 360.0 - 180.0
+        vt = float(ts @ ts)
+        if vt <= 0:
+            return None
+        return float(ts @ (az - az.mean())) / vt
 
     def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
         """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
