@@ -3033,7 +3033,9 @@ class ClusterParams:
     (``relink_camera``); the rates are a line fitted to the directions of its box's centre over the last
     ``relink_predict_side_win_s`` (2) seconds, boxes clear of the edges, in azimuth only (its last velocity,
     from a box cut by the edge or a cluster that slid onto the sailboat's mast, threw it 1100 px off; the
-    fitted elevation rate lifted it into the sky).  ``relink_predict_side_ir`` (False:
+    fitted elevation rate lifted it into the sky); its row is its centre's median elevation over that
+    time (the motorboat's last box had slid onto the sailboat's mast, 50 px above its hull).  Without a
+    fit (fewer boxes clear of the edges, as a boat that hugged the edge), it is carried as without the step.  ``relink_predict_side_ir`` (False:
     visible frames only; True: infrared too).
 
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
@@ -4387,9 +4389,13 @@ class FeatureClusterer:
                         # relink_predict_side_s (session 30, h39): the rates fitted to its centre's directions over
                         # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
                         # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
-                        r_ = self._dir_rate(k, t)
+                        r_ = self._dir_rate(k, t, dt)
                         if r_ is not None:
-                            daz, del_ = r_, 0.0  # a boat keeps its row (its range): azimuth only
+                            daz, del_ = r_[0], 0.0  # a boat keeps its row (its range): azimuth only
+                            # and its row is its centre's median over that time (the last box may have slid)
+                            el = np.asarray(el, np.float64) + (r_[1] - float(np.mean(el)))
+                        elif p.relink_predict_s <= 0:
+                            daz = del_ = 0.0  # no fit: carried by the camera only, as without the step
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
@@ -4642,23 +4648,24 @@ class FeatureClusterer:
         cam = (c - back) / max(dt, 1e-6)
         return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
 
-    def _dir_rate(self, k, t):
-        """``relink_predict_side_s``: identity ``k``'s azimuth rate (deg/s),
+    def _dir_rate(self, k, t, dt):
+        """``relink_predict_side_s``: identity ``k``'s azimuth rate (deg/s) and median elevation (deg),
         a least-squares line through its box centre's directions over the last ``relink_predict_side_win_s``
-        seconds before ``t``; None with fewer than 3 of them or spanning under half that time."""
+        seconds before ``t``; None with fewer than half the frames of that time (``dt``: the frame
+        interval; at least 3) or spanning under half that time."""
         dq = self._dir_hist.get(k)
         w = self.params.relink_predict_side_win_s
         if not dq:
             return None
         a = np.array([q for q in dq if q[0] >= t - w - 1e-9], np.float64)
-        if len(a) < 3 or a[-1, 0] - a[0, 0] < 0.5 * w:
-            return None
+        if len(a) < max(3, 0.5 * w / max(dt, 1e-3)) or a[-1, 0] - a[0, 0] < 0.5 * w:
+            return None  # too few: a box that hugged the edge for long (cut by it, its centre tells nothing)
         ts = a[:, 0] - a[:, 0].mean()
         az = (a[:, 1] - a[0, 1] + 180.0) % 360.0 - 180.0
         vt = float(ts @ ts)
         if vt <= 0:
             return None
-        return float(ts @ (az - az.mean())) / vt
+        return float(ts @ (az - az.mean())) / vt, float(np.median(a[:, 2]))
 
     def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
         """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
