@@ -25,12 +25,12 @@ class LinearCamera:
         return 120.0 + np.radians(az - 180.0) * F, 80.0 - np.radians(el) * F, np.ones(az.shape, bool)
 
 
-def run(ir=False, n_after=10, **kw):
+def run(ir=False, n_after=10, x_start=60.0, **kw):
     c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0, **kw}))
     cam = LinearCamera()
     ident = None
     for k in range(16):  # x0 from 60 down to 0 at 4 px a frame (40 px/s)
-        x0 = max(60.0 - 4.0 * k, 0.0)
+        x0 = max(x_start - 4.0 * k, 0.0)
         _, tr = c.update(snap([[x0 + 0.5, 62], [x0 + 8, 70]], [[-40, 0], [-40, 0]], 0.1 * k, k, [1, 2]),
                          dark_box_sea(SHAPE, (int(x0), 60, int(x0) + 12, 72), k), camera=cam, ir=ir)
         if len(tr):
@@ -71,3 +71,9 @@ def test_relink_predict_side_s_off_on_infrared_unless_asked():
     assert abs(c._lost[ident][1][0]) < 6.0
     ident, c = run(ir=True, relink_predict_side_s=10.0, relink_predict_side_win_s=1.0, relink_predict_side_ir=True)
     assert c._lost[ident][1][0] < -25.0
+
+
+def test_relink_predict_side_s_no_fit_carried_by_the_camera_only():
+    # the boat reaches the edge after 2 frames and hugs it: too few boxes clear of the edge for a fit
+    ident, c = run(x_start=8.0, relink_predict_side_s=10.0, relink_predict_side_win_s=1.0)
+    assert abs(c._lost[ident][1][0]) < 6.0
