@@ -1,7 +1,8 @@
 """Session 30 (issue #8, helper h39): ``relink_predict_side_s``.  A boat moving left at 40 px/s (seen through a
-fixed camera model) leaves the view at the left edge and is lost there.  By default its lost box, carried by the
-camera only, stays at the edge; with the step it moves on with the azimuth rate fitted to its box centre's
-directions over the last ``relink_predict_side_win_s`` seconds (boxes clear of the edge), not its elevation."""
+fixed camera model) leaves the view at the left edge and is lost there.  Its lost box, carried by the camera
+only, stays at the edge with or without the step; with the step a second place for the relink moves on with
+the azimuth rate fitted to its box centre's directions over the last ``relink_predict_side_win_s`` seconds
+(boxes clear of the edge), not its elevation."""
 
 import numpy as np
 
@@ -23,6 +24,11 @@ class LinearCamera:
     def azel_to_pixel(self, az, el):
         az, el = np.asarray(az, float), np.asarray(el, float)
         return 120.0 + np.radians(az - 180.0) * F, 80.0 - np.radians(el) * F, np.ones(az.shape, bool)
+
+
+def pred(c, ident):
+    """The step's second place for lost identity ``ident`` now (the last frame at 2.6 s)."""
+    return c._side_pred_box(ident, c._lost[ident][0], 2.6, LinearCamera())
 
 
 def run(ir=False, n_after=10, x_start=60.0, **kw):
@@ -50,11 +56,13 @@ def test_off_by_default_the_side_lost_box_stays():
     ident, c = run()
     x = c._lost[ident][1][0]
     assert abs(x) < 6.0, x
+    assert not c._lost_fit
 
 
 def test_relink_predict_side_s_moves_the_lost_box_on():
     ident, c = run(relink_predict_side_s=10.0, relink_predict_side_win_s=1.0)
-    x, y = c._lost[ident][1][:2]
+    assert abs(c._lost[ident][1][0]) < 6.0  # the carried box itself is unchanged
+    x, y = pred(c, ident)[:2]
     # 1.0 s lost at 40 px/s: about 40 px further left; its row kept
     assert -55.0 < x < -25.0, x
     assert abs(y - 60.0) < 4.0, y
@@ -62,18 +70,18 @@ def test_relink_predict_side_s_moves_the_lost_box_on():
 
 def test_relink_predict_side_s_stops_after_its_time():
     ident, c = run(relink_predict_side_s=0.5, relink_predict_side_win_s=1.0)
-    x = c._lost[ident][1][0]
+    x = pred(c, ident)[0]
     assert -30.0 < x < -12.0, x  # 0.5 s of it: about 20 px
 
 
 def test_relink_predict_side_s_off_on_infrared_unless_asked():
     ident, c = run(ir=True, relink_predict_side_s=10.0, relink_predict_side_win_s=1.0)
-    assert abs(c._lost[ident][1][0]) < 6.0
+    assert ident not in c._lost_fit
     ident, c = run(ir=True, relink_predict_side_s=10.0, relink_predict_side_win_s=1.0, relink_predict_side_ir=True)
-    assert c._lost[ident][1][0] < -25.0
+    assert pred(c, ident)[0] < -25.0
 
 
 def test_relink_predict_side_s_no_fit_carried_by_the_camera_only():
     # the boat reaches the edge after 2 frames and hugs it: too few boxes clear of the edge for a fit
     ident, c = run(x_start=8.0, relink_predict_side_s=10.0, relink_predict_side_win_s=1.0)
-    assert abs(c._lost[ident][1][0]) < 6.0
+    assert ident not in c._lost_fit

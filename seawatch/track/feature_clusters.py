@@ -3024,10 +3024,10 @@ class ClusterParams:
     ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
 
     ``relink_predict_side_s`` (session 30, h39; seconds; 0: off): an identity lost at the image's left or
-    right edge moves on with its own last velocity (its direction's rate with the camera model, else its
-    own image velocity) for up to this many seconds after the loss, as ``relink_predict_s`` does for all
-    (the larger of the two applies): a boat pushed out of the view at the side by the pan or the zoom
-    goes on moving while out of it.  On sim ``pan`` 174 the motorboat (5 m/s at 300 m) left at the left
+    right edge may also be relinked where its own motion took it (a second place for the relink gap, as
+    ``relink_alt_s``'s; its carried box, which the coast also reads, is unchanged): its corners'
+    directions at the loss moved on in azimuth for up to this many seconds: a boat pushed out of the
+    view at the side by the pan or the zoom goes on moving while out of it.  On sim ``pan`` 174 the motorboat (5 m/s at 300 m) left at the left
     edge in the zoom-in at 20 s; its lost box, carried by the camera only, sat at x -286 while the boat
     came back at 28.7 s at x 2, 333 px away (gate 282): "too far".  Only with the camera model
     (``relink_camera``); the rates are a line fitted to the directions of its box's centre over the last
@@ -3401,6 +3401,7 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
+        self._lost_fit: dict = {}  # relink_predict_side_s: lost identity -> (azimuth rate deg/s, median elevation deg) at the loss
         self._dir_hist: dict = {}  # relink_predict_side_s: reported identity -> [(t, az, el)] of its box centre clear of the edges
         self._area_hist: dict = {}  # relink_area_med_n_ir: reported identity -> [(area, zoom)] of its last boxes
         self._lost_amed: dict = {}  # relink_area_med_n_ir: lost identity -> (median area of its last boxes, zoom)
@@ -4023,16 +4024,12 @@ class FeatureClusterer:
                     continue
                 d = dirs.get(k) if fcam is not None else None
                 nb_ = None
-                pred_s = p.relink_predict_s
-                if side_pred_on and k in self._lost_side:  # session 30 (h39): lost at the side, it moves on
-                    pred_s = max(pred_s, p.relink_predict_side_s)
                 if d is not None:
-                    el_s = min(t - tl, pred_s) if p.relink_predict else 0.0
-                    pred_s = p.relink_predict_s  # the carried box (no camera model): relink_predict_s only
+                    el_s = min(t - tl, p.relink_predict_s) if p.relink_predict else 0.0
                     u, w_, ok = fcam.azel_to_pixel(d[0] + d[2] * el_s, d[1] + d[3] * el_s)
                     if np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_)):
                         nb_ = np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
-                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= pred_s else None), v)
+                kept[k] = (tl, nb_ if nb_ is not None else carry(b, v if t - tl <= p.relink_predict_s else None), v)
             return kept
 
         self._lost = expect(self._lost, self._lost_dir)
@@ -4103,6 +4100,7 @@ class FeatureClusterer:
         side_row = {}  # relink_side_row_margin: (new cluster, lost identity lost at the side) -> its row key at the loss
         side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
         side_app_on = p.relink_side_app_near_px > 0 and (p.relink_side_app_near_ir or not self._ir)
+        side_pred = {}  # relink_predict_side_s: lost identity -> its predicted box this frame (None: none)
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -4115,6 +4113,14 @@ class FeatureClusterer:
                     # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
                     rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
                 gate = p.relink_px + rate * (t - tl) * self._zoom
+                if side_pred_on and d > gate and k in self._lost_fit and k in self._lost_side:
+                    # relink_predict_side_s (session 30, h39): or where its own fitted azimuth rate took it
+                    if k not in side_pred:
+                        side_pred[k] = self._side_pred_box(k, tl, t, fcam)
+                    if side_pred[k] is not None:
+                        d_pr = gap_px(boxes[i], side_pred[k])
+                        if d_pr <= gate:
+                            d, lb = d_pr, side_pred[k]
                 alt = self._lost_alt.get(k)
                 if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
                     d_alt = gap_px(boxes[i], alt[1])
@@ -4391,11 +4397,9 @@ class FeatureClusterer:
                         # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
                         r_ = self._dir_rate(k, t, dt)
                         if r_ is not None:
-                            daz, del_ = r_[0], 0.0  # a boat keeps its row (its range): azimuth only
-                            # and its row is its centre's median over that time (the last box may have slid)
-                            el = np.asarray(el, np.float64) + (r_[1] - float(np.mean(el)))
-                        elif p.relink_predict_s <= 0:
-                            daz = del_ = 0.0  # no fit: carried by the camera only, as without the step
+                            self._lost_fit[k] = r_
+                        else:
+                            self._lost_fit.pop(k, None)
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
@@ -4474,6 +4478,8 @@ class FeatureClusterer:
             self._swapped = {k for k in self._swapped if k in now}
         if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_side = {k for k in self._lost_side if k in self._lost}
+        if len(self._lost_fit) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_fit = {k: v for k, v in self._lost_fit.items() if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
             self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
@@ -4647,6 +4653,22 @@ class FeatureClusterer:
         back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
         cam = (c - back) / max(dt, 1e-6)
         return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
+
+    def _side_pred_box(self, k, tl, t, fcam):
+        """``relink_predict_side_s``: lost identity ``k``'s box moved on by its fitted azimuth rate for
+        ``min(t - tl, relink_predict_side_s)`` seconds from its corners' directions at the loss, its row at
+        its median elevation, projected through the camera ``fcam``; None without them."""
+        d = self._lost_dir.get(k)
+        if fcam is None or d is None:
+            return None
+        rate, el_med = self._lost_fit[k]
+        az = np.asarray(d[0], np.float64) + rate * min(t - tl, self.params.relink_predict_side_s)
+        el = np.asarray(d[1], np.float64)
+        el = el + (el_med - float(np.mean(el)))
+        u, w_, ok = fcam.azel_to_pixel(az, el)
+        if not (np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_))):
+            return None
+        return np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
 
     def _dir_rate(self, k, t, dt):
         """``relink_predict_side_s``: identity ``k``'s azimuth rate (deg/s) and median elevation (deg),
