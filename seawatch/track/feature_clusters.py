@@ -3035,6 +3035,21 @@ class ClusterParams:
     a longer median (``relink_side_h_n`` 15) keeps both.  ``relink_side_h_clear_ir`` (False: visible frames
     only; True: infrared too).
 
+    ``relink_predict_side_s`` (session 30, h39; seconds; 0: off): an identity lost at the image's left or
+    right edge may also be relinked where its own motion took it (a second place for the relink gap, as
+    ``relink_alt_s``'s; its carried box, which the coast also reads, is unchanged): its corners'
+    directions at the loss moved on in azimuth for up to this many seconds: a boat pushed out of the
+    view at the side by the pan or the zoom goes on moving while out of it.  On sim ``pan`` 174 the motorboat (5 m/s at 300 m) left at the left
+    edge in the zoom-in at 20 s; its lost box, carried by the camera only, sat at x -286 while the boat
+    came back at 28.7 s at x 2, 333 px away (gate 282): "too far".  Only with the camera model
+    (``relink_camera``); the rates are a line fitted to the directions of its box's centre over the last
+    ``relink_predict_side_win_s`` (2) seconds, boxes clear of the edges, in azimuth only (its last velocity,
+    from a box cut by the edge or a cluster that slid onto the sailboat's mast, threw it 1100 px off; the
+    fitted elevation rate lifted it into the sky); its row is its centre's median elevation over that
+    time (the motorboat's last box had slid onto the sailboat's mast, 50 px above its hull).  Without a
+    fit (fewer boxes clear of the edges, as a boat that hugged the edge), it is carried as without the step.  ``relink_predict_side_ir`` (False:
+    visible frames only; True: infrared too).
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3314,6 +3329,9 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
+    relink_predict_side_s: float = 0.0
+    relink_predict_side_ir: bool = False
+    relink_predict_side_win_s: float = 2.0
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
@@ -3399,6 +3417,8 @@ class FeatureClusterer:
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
+        self._lost_fit: dict = {}  # relink_predict_side_s: lost identity -> (azimuth rate deg/s, median elevation deg) at the loss
+        self._dir_hist: dict = {}  # relink_predict_side_s: reported identity -> [(t, az, el)] of its box centre clear of the edges
         self._area_hist: dict = {}  # relink_area_med_n_ir: reported identity -> [(area, zoom)] of its last boxes
         self._lost_amed: dict = {}  # relink_area_med_n_ir: lost identity -> (median area of its last boxes, zoom)
         self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
@@ -4010,6 +4030,8 @@ class FeatureClusterer:
         # with the camera model, their directions are projected through this frame's camera
         fcam = self._camera if p.relink_camera else None
 
+        side_pred_on = p.relink_predict_side_s > 0 and (p.relink_predict_side_ir or not self._ir)
+
         def expect(lost, dirs):
             kept = {}
             for k, (tl, b, v) in lost.items():
@@ -4094,6 +4116,7 @@ class FeatureClusterer:
         side_row = {}  # relink_side_row_margin: (new cluster, lost identity lost at the side) -> its row key at the loss
         side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
         side_app_on = p.relink_side_app_near_px > 0 and (p.relink_side_app_near_ir or not self._ir)
+        side_pred = {}  # relink_predict_side_s: lost identity -> its predicted box this frame (None: none)
         for i in list(new) + sorted(retry):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -4106,6 +4129,14 @@ class FeatureClusterer:
                     # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
                     rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
                 gate = p.relink_px + rate * (t - tl) * self._zoom
+                if side_pred_on and d > gate and k in self._lost_fit and k in self._lost_side:
+                    # relink_predict_side_s (session 30, h39): or where its own fitted azimuth rate took it
+                    if k not in side_pred:
+                        side_pred[k] = self._side_pred_box(k, tl, t, fcam)
+                    if side_pred[k] is not None:
+                        d_pr = gap_px(boxes[i], side_pred[k])
+                        if d_pr <= gate:
+                            d, lb = d_pr, side_pred[k]
                 alt = self._lost_alt.get(k)
                 if alt is not None and d > gate:  # relink_alt_s: or where it was expected before a relink undone late
                     d_alt = gap_px(boxes[i], alt[1])
@@ -4346,7 +4377,7 @@ class FeatureClusterer:
                     self._lost_amed[k] = (float(np.median([a_ * self._zoom ** 2 / max(z_, 1e-6) ** 2 for a_, z_ in ah])),
                                           self._zoom)
                 if ((p.relink_dy_px_per_s > 0 and p.relink_dy_side) or p.relink_side_h_ratio > 0 or p.relink_aspect_ratio > 0
-                        or p.relink_side_row_margin > 0):
+                        or p.relink_side_row_margin > 0 or p.relink_predict_side_s > 0):
                     # session 23: lost at the left or right edge
                     w_img = None if getattr(snap, "shape", None) is None else float(snap.shape[1])
                     if w_img is not None and (b[0] <= 1.0 or b[0] + b[2] >= w_img - 1.0):
@@ -4376,6 +4407,15 @@ class FeatureClusterer:
                         a2, e2 = prev_cam.pixel_to_azel(np.array([c[0], c[0] + v[0]]), np.array([c[1], c[1] + v[1]]))
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
+                    if side_pred_on and k in self._lost_side:
+                        # relink_predict_side_s (session 30, h39): the rates fitted to its centre's directions over
+                        # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
+                        # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
+                        r_ = self._dir_rate(k, t, dt)
+                        if r_ is not None:
+                            self._lost_fit[k] = r_
+                        else:
+                            self._lost_fit.pop(k, None)
                     self._lost_dir[k] = (az, el, daz, del_)
                 if p.relink_overlap > 0 and k not in self._joined_apart:
                     r = self._hand_over(k, cids, boxes, rep, now, own)
@@ -4424,6 +4464,20 @@ class FeatureClusterer:
             if len(self._area_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
                 self._area_hist = {k: v for k, v in self._area_hist.items() if k in now or k in self._lost}
                 self._lost_amed = {k: v for k, v in self._lost_amed.items() if k in self._lost}
+        if side_pred_on and fcam is not None and now and getattr(snap, "shape", None) is not None:
+            # relink_predict_side_s: each reported identity's centre directions, boxes clear of the edges
+            w_img = float(snap.shape[1])
+            ks = [k for k, b in now.items() if b[0] > 1.0 and b[0] + b[2] < w_img - 1.0]
+            if ks:
+                cb = np.array([now[k] for k in ks], np.float64)
+                az_, el_ = fcam.pixel_to_azel(cb[:, 0] + 0.5 * cb[:, 2], cb[:, 1] + 0.5 * cb[:, 3])
+                for k, a_, e_ in zip(ks, np.atleast_1d(az_).tolist(), np.atleast_1d(el_).tolist()):
+                    dq = self._dir_hist.setdefault(k, collections.deque())
+                    dq.append((t, a_, e_))
+                    while dq and dq[0][0] < t - p.relink_predict_side_win_s - 1e-9:
+                        dq.popleft()
+            if len(self._dir_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
+                self._dir_hist = {k: v for k, v in self._dir_hist.items() if k in now or k in self._lost}
         self._prev_boxes = now
         self._prev_vel = own
         self._own_prev = self._own_now
@@ -4443,6 +4497,8 @@ class FeatureClusterer:
             self._swapped = {k for k in self._swapped if k in now}
         if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_side = {k for k in self._lost_side if k in self._lost}
+        if len(self._lost_fit) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_fit = {k: v for k, v in self._lost_fit.items() if k in self._lost}
         if len(self._lost_alt_dir) > len(self._lost_alt) + 16:
             self._lost_alt_dir = {k: v for k, v in self._lost_alt_dir.items() if k in self._lost_alt}
         self._prev_camera = fcam
@@ -4616,6 +4672,41 @@ class FeatureClusterer:
         back /= ((hinv[2, :2] @ c.T) + hinv[2, 2])[:, None]
         cam = (c - back) / max(dt, 1e-6)
         return np.asarray(vel, np.float64) - cam, np.hypot(cam[:, 0], cam[:, 1])
+
+    def _side_pred_box(self, k, tl, t, fcam):
+        """``relink_predict_side_s``: lost identity ``k``'s box moved on by its fitted azimuth rate for
+        ``min(t - tl, relink_predict_side_s)`` seconds from its corners' directions at the loss, its row at
+        its median elevation, projected through the camera ``fcam``; None without them."""
+        d = self._lost_dir.get(k)
+        if fcam is None or d is None:
+            return None
+        rate, el_med = self._lost_fit[k]
+        az = np.asarray(d[0], np.float64) + rate * min(t - tl, self.params.relink_predict_side_s)
+        el = np.asarray(d[1], np.float64)
+        el = el + (el_med - float(np.mean(el)))
+        u, w_, ok = fcam.azel_to_pixel(az, el)
+        if not (np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_))):
+            return None
+        return np.array([min(u), min(w_), abs(u[1] - u[0]), abs(w_[1] - w_[0])])
+
+    def _dir_rate(self, k, t, dt):
+        """``relink_predict_side_s``: identity ``k``'s azimuth rate (deg/s) and median elevation (deg),
+        a least-squares line through its box centre's directions over the last ``relink_predict_side_win_s``
+        seconds before ``t``; None with fewer than half the frames of that time (``dt``: the frame
+        interval; at least 3) or spanning under half that time."""
+        dq = self._dir_hist.get(k)
+        w = self.params.relink_predict_side_win_s
+        if not dq:
+            return None
+        a = np.array([q for q in dq if q[0] >= t - w - 1e-9], np.float64)
+        if len(a) < max(3, 0.5 * w / max(dt, 1e-3)) or a[-1, 0] - a[0, 0] < 0.5 * w:
+            return None  # too few: a box that hugged the edge for long (cut by it, its centre tells nothing)
+        ts = a[:, 0] - a[:, 0].mean()
+        az = (a[:, 1] - a[0, 1] + 180.0) % 360.0 - 180.0
+        vt = float(ts @ ts)
+        if vt <= 0:
+            return None
+        return float(ts @ (az - az.mean())) / vt, float(np.median(a[:, 2]))
 
     def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
         """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
