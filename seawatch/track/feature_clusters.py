@@ -3082,6 +3082,21 @@ class ClusterParams:
     the box at the loss can be the largest of them.  On sim ``ir`` 41 (24.7 s) the sailboat's identity, lost at
     a 17 x 17 px box (its boxes before: 8 x 17-19), was refused to its own 8 x 8 px cluster (< 0.3 of 289 px).
 
+    ``relink_shape_block_s_ir`` (session 31, h42; seconds; 0: off; infrared frames only): a new cluster whose
+    box overlaps the expected box of an identity lost at most this long ago, but which the relink's shape
+    checks (``relink_aspect_ratio``, ``relink_min_area``) refuse it, takes no lost identity in that frame (it
+    stays under its own identity, for ``relink_retry_s`` to give the near one later): on sim ``ir`` 53 (39.4 s)
+    a cluster born with a box 57 x 11 px over the sailboat and the cargo ship's stern covered the sailboat's
+    identity lost 0.7 s before (11 x 14 px: refused by the aspect ratio) and took the cargo ship's, lost 18.7 s
+    and 22 px away; a second later its box was the sailboat's alone.
+
+    ``relink_shape_min_n_ir`` (session 31, h42; a count of frames; 0: off; infrared frames only): the relink's
+    shape checks (``relink_aspect_ratio``, ``relink_min_area``) also accept a new cluster that passes them
+    against the smallest of the lost identity's last this many reported boxes (carried by the zoom change): a
+    small boat's box widens on infrared for a few frames over a neighbour's feature before the loss (sim ``ir``
+    43 at 11.9 s: the sailboat's 8 x 10 px box became 55 x 11 px for 0.3 s, and at 25.0 s its own new 8 x 10 px
+    cluster was refused its identity by the aspect ratio and the size check).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3336,6 +3351,8 @@ class ClusterParams:
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
     relink_area_med_n_ir: int = 5
+    relink_shape_block_s_ir: float = 0.0
+    relink_shape_min_n_ir: int = 0
 
 
 class FeatureClusterer:
@@ -3421,6 +3438,9 @@ class FeatureClusterer:
         self._dir_hist: dict = {}  # relink_predict_side_s: reported identity -> [(t, az, el)] of its box centre clear of the edges
         self._area_hist: dict = {}  # relink_area_med_n_ir: reported identity -> [(area, zoom)] of its last boxes
         self._lost_amed: dict = {}  # relink_area_med_n_ir: lost identity -> (median area of its last boxes, zoom)
+        self._box_hist: dict = {}  # relink_shape_min_n_ir: reported identity -> [(box, zoom)] of its last boxes
+        self._lost_small: dict = {}  # relink_shape_min_n_ir: lost identity -> (its smallest last box, zoom)
+        self._shape_wait: dict = {}  # relink_shape_block_s_ir: blocked cluster -> (time blocked, the identities it covered)
         self._lost_row: dict = {}  # lost identity -> (bottom row less the horizon's, raw bottom row) at the loss (relink_side_row_margin)
         self._camera = None
         self._prev_camera = None
@@ -4117,10 +4137,25 @@ class FeatureClusterer:
         side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
         side_app_on = p.relink_side_app_near_px > 0 and (p.relink_side_app_near_ir or not self._ir)
         side_pred = {}  # relink_predict_side_s: lost identity -> its predicted box this frame (None: none)
-        for i in list(new) + sorted(retry):
+        block_on = p.relink_shape_block_s_ir > 0 and self._ir
+        shape_min_on = p.relink_shape_min_n_ir > 0 and self._ir
+        blocked = set()  # relink_shape_block_s_ir: new clusters that cover a just-lost identity refused by shape
+        block_ks = {}  # relink_shape_block_s_ir: blocked new cluster -> the identities it covered
+        waiting = {}  # relink_shape_block_s_ir: a cluster blocked before, under its own identity -> those identities
+        if block_on and self._shape_wait:
+            self._shape_wait = {c: e for c, e in self._shape_wait.items()
+                                if t - e[0] <= p.relink_shape_block_s_ir + 1e-9}
+            seen_ = set(new) | set(retry)
+            for i in range(len(cids)):
+                c = int(cids[i])
+                if i not in seen_ and c in self._shape_wait and int(rep[i]) == c:
+                    waiting[i] = self._shape_wait[c][1]
+        for i in list(new) + sorted(retry) + sorted(waiting):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
                     continue
+                if i in waiting and k not in waiting[i]:
+                    continue  # relink_shape_block_s_ir: only the identities it covered when blocked
                 if i in retry and tl > self._birth[int(cids[i])] + 1e-9:
                     continue  # relink_retry_s: only an identity lost before the young cluster was first seen
                 d = gap_px(boxes[i], lb)
@@ -4167,12 +4202,24 @@ class FeatureClusterer:
                         continue
                     if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
                         continue  # session 24 (H9): a new cluster is a part of its boat, rarely more
+                sm = self._lost_small.get(k) if shape_min_on else None
+                if sm is not None:  # relink_shape_min_n_ir: its smallest last box, carried by the zoom change
+                    sm = np.asarray(sm[0], np.float64) * np.array([1.0, 1.0, self._zoom / max(sm[1], 1e-6),
+                                                                   self._zoom / max(sm[1], 1e-6)])
                 if (p.relink_aspect_ratio > 0 and k not in self._lost_side and min(lb[2], lb[3]) >= 2.0
                         and min(boxes[i][2], boxes[i][3]) >= 2.0):
                     # session 24 (H9): a boat keeps its shape (a mast's tall box is not a hull's long one)
                     ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(lb[2]) / float(lb[3]))
                     if max(ar, 1.0 / ar) > p.relink_aspect_ratio:
-                        continue
+                        ok_sm = False
+                        if sm is not None and min(sm[2], sm[3]) >= 2.0:
+                            ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(sm[2]) / float(sm[3]))
+                            ok_sm = max(ar, 1.0 / ar) <= p.relink_aspect_ratio
+                        if not ok_sm:
+                            if block_on and d <= 0.0 and t - tl <= p.relink_shape_block_s_ir + 1e-9:
+                                blocked.add(i)  # relink_shape_block_s_ir: it covers a just-lost identity
+                                block_ks.setdefault(i, set()).add(k)
+                            continue
                 if p.relink_size_ratio > 0:  # stop 16: a boat keeps its size (the lost box is carried through the zoom)
                     hb, hl = float(boxes[i][3]), float(lb[3])
                     if max(hb, hl) > p.relink_size_ratio * max(min(hb, hl), 1.0):
@@ -4184,9 +4231,14 @@ class FeatureClusterer:
                 if p.relink_area_med_n_ir > 0 and self._ir and k in self._lost_amed:  # session 30 (h37)
                     am, zm = self._lost_amed[k]
                     a_ref = min(a_ref, am * (self._zoom / max(zm, 1e-6)) ** 2)
+                if sm is not None:  # relink_shape_min_n_ir
+                    a_ref = min(a_ref, float(sm[2] * sm[3]))
                 if (p.relink_min_area > 0 and boxes[i][2] * boxes[i][3] < p.relink_min_area * a_ref
                         and (not p.relink_area_same_zoom
                              or abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05)):
+                    if block_on and d <= 0.0 and t - tl <= p.relink_shape_block_s_ir + 1e-9:
+                        blocked.add(i)  # relink_shape_block_s_ir
+                        block_ks.setdefault(i, set()).add(k)
                     continue  # session 21: a large boat's identity is not given to a much smaller cluster
                 if ((p.relink_area_zoom_min > 0 or p.relink_height_zoom_min > 0) and p.relink_area_same_zoom
                         and not abs(self._zoom / self._lost_zoom.get(k, np.nan) - 1.0) <= 0.05
@@ -4213,6 +4265,11 @@ class FeatureClusterer:
                     pairs.append((d, -o, i, k))
                     if side_row_on and k in self._lost_side and k in self._lost_row:
                         side_row[(i, k)] = self._lost_row[k]
+        if blocked:  # relink_shape_block_s_ir: no identity now; the covered ones wait for it a while
+            pairs = [q for q in pairs if q[2] not in blocked]
+            for i in blocked:
+                if i not in waiting:
+                    self._shape_wait[int(cids[i])] = (t, block_ks.get(i, set()))
         if p.relink_app_margin > 0 and (p.relink_app_margin_ir or not self._ir) and len(app_d) > 1:
             # relink_app_margin: of a new cluster's lost identities whose looks are known, those looking
             # more than the margin further away than the best-looking one are not its candidates
@@ -4250,8 +4307,9 @@ class FeatureClusterer:
             if p.hand_over_relinked:
                 self._relinked_now[k] = (i, self._lost[k], self._lost_dir.get(k), self._lost_alt.get(k),
                                          self._lost_alt_dir.get(k), self._relinked.get(k), self._relinked_alt.get(k))
-            if i in retry:
+            if i in retry or i in waiting:
                 retired.add(int(rep[i]))
+                self._shape_wait.pop(int(cids[i]), None)
             self._alias[int(cids[i])] = k
             rep[i] = k
             present.add(k)
@@ -4372,6 +4430,12 @@ class FeatureClusterer:
                 self._lost[k] = (t, carry(b, v0 if p.relink_predict_s > 0 else None), v0)
                 if p.relink_area_at_loss:
                     self._lost_a0[k] = (float(self._lost[k][1][2] * self._lost[k][1][3]), self._zoom)
+                if p.relink_shape_min_n_ir > 0 and self._ir and self._box_hist.get(k):
+                    bh = self._box_hist[k]
+                    j_ = int(np.argmin([b_[2] * b_[3] * (self._zoom / max(z_, 1e-6)) ** 2 for b_, z_ in bh]))
+                    self._lost_small[k] = (bh[j_][0].copy(), bh[j_][1])
+                else:
+                    self._lost_small.pop(k, None)
                 if p.relink_area_med_n_ir > 0 and self._ir and self._area_hist.get(k):
                     ah = self._area_hist[k]
                     self._lost_amed[k] = (float(np.median([a_ * self._zoom ** 2 / max(z_, 1e-6) ** 2 for a_, z_ in ah])),
@@ -4454,6 +4518,16 @@ class FeatureClusterer:
                         del hw[0]
             if len(self._whole_h) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
                 self._whole_h = {k: v for k, v in self._whole_h.items() if k in now or k in self._lost}
+        if p.relink_shape_min_n_ir > 0 and self._ir:
+            # relink_shape_min_n_ir: each reported identity's last boxes
+            for k, b in now.items():
+                bh = self._box_hist.setdefault(k, [])
+                bh.append((np.asarray(b, np.float64).copy(), float(self._zoom)))
+                if len(bh) > int(p.relink_shape_min_n_ir):
+                    del bh[0]
+            if len(self._box_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
+                self._box_hist = {k: v for k, v in self._box_hist.items() if k in now or k in self._lost}
+                self._lost_small = {k: v for k, v in self._lost_small.items() if k in self._lost}
         if p.relink_area_med_n_ir > 0 and self._ir:
             # relink_area_med_n_ir: each reported identity's last areas
             for k, b in now.items():

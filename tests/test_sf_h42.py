@@ -1,0 +1,84 @@
+"""Session 31 (issue #8, helper h42): ``relink_shape_block_s_ir`` and ``relink_shape_min_n_ir``, the relink's
+shape checks and a small boat's box widened over a neighbour's feature (sim ``ir`` 53 at 39.4 s, ``ir`` 43 at
+25.0 s: the boxes below).  Both off by default, both on infrared frames only."""
+
+import numpy as np
+
+from seawatch.detect.features import FeatureSnapshot
+from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
+
+SAIL8 = np.array([288.0, 245.0, 11.0, 14.0])  # ir 53: the sailboat's identity 8, lost at 38.7 s
+CARGO14 = np.array([366.0, 241.0, 52.0, 10.0])  # ir 53: the cargo ship's identity 14, lost at 20.6 s
+WIDE = np.array([[287.0, 248.0, 57.0, 11.0]])  # ir 53: new cluster 317 at 39.4 s, over the sailboat and the stern
+NARROW = np.array([[290.0, 243.0, 8.0, 16.0]])  # ir 53: cluster 317 at 40.2 s, the sailboat alone
+
+
+def _snap(t):
+    z = np.zeros((0, 2))
+    return FeatureSnapshot(t_s=t, frame_index=int(round(t * 10)), ids=np.zeros(0, int), slots=np.zeros(0, int),
+                           xy=z, size_px=np.zeros(0), confidence=np.zeros(0, int), stable=np.zeros(0, bool),
+                           matched=np.zeros(0, bool), velocity=z, history=np.zeros((0, 4, 2)), image_velocity=z,
+                           homography=np.eye(3), dt_s=0.1, n_keypoints=0, n_matched=0, shape=(480, 640))
+
+
+def _clusterer(ir=True, **kw):
+    c = FeatureClusterer(ClusterParams(**kw))
+    c._ir = ir
+    c._lost = {8: (38.7, SAIL8.copy(), np.zeros(2)), 14: (20.6, CARGO14.copy(), np.zeros(2))}
+    return c
+
+
+def test_off_by_default():
+    p = ClusterParams()
+    assert p.relink_shape_block_s_ir == 0.0 and p.relink_shape_min_n_ir == 0
+
+
+def test_block_keeps_the_far_identity_and_gives_the_covered_one_later():
+    c = _clusterer(relink_shape_block_s_ir=1.0)
+    rep = c._relink(_snap(39.4), np.array([317]), WIDE.copy())
+    assert rep.tolist() == [317]  # neither the sailboat's (refused by the aspect ratio) nor the cargo's
+    assert 14 in c._lost and 8 in c._lost
+    for t in (39.5, 39.6, 39.7):
+        rep = c._relink(_snap(t), np.array([317]), WIDE.copy())
+        assert rep.tolist() == [317]
+    rep = c._relink(_snap(40.2), np.array([317]), NARROW.copy())  # its box is the sailboat's now
+    assert rep.tolist() == [8] and 8 not in c._lost and 14 in c._lost
+
+
+def test_block_off_or_on_visible_frames_takes_the_far_identity():
+    for c in (_clusterer(), _clusterer(ir=False, relink_shape_block_s_ir=1.0)):
+        rep = c._relink(_snap(39.4), np.array([317]), WIDE.copy())
+        assert rep.tolist() == [14]  # the defaults' answer: the cargo's identity, 22 px away
+
+
+def test_block_waits_only_its_time():
+    c = _clusterer(relink_shape_block_s_ir=0.5)
+    rep = c._relink(_snap(39.4), np.array([317]), WIDE.copy())
+    assert rep.tolist() == [14]  # the sailboat's lost 0.7 s before: longer than 0.5 s, no block
+    c = _clusterer(relink_shape_block_s_ir=0.8)
+    assert c._relink(_snap(39.4), np.array([317]), WIDE.copy()).tolist() == [317]
+    rep = c._relink(_snap(40.3), np.array([317]), NARROW.copy())  # 0.9 s later: no longer waiting
+    assert rep.tolist() == [317]
+
+
+def _shape_min(ir=True, **kw):
+    """ir 43: the sailboat's boxes 8 x 10 px, widened to 55 x 11 px for its last 3 frames, then lost; 13 s later its
+    own new 8 x 10 px cluster beside it."""
+    c = FeatureClusterer(ClusterParams(**kw))
+    c._ir = ir
+    boxes = [[314.0, 248.0, 8.0, 11.0], [314.0, 249.0, 8.0, 10.0], [315.0, 248.0, 55.0, 11.0],
+             [315.0, 248.0, 54.0, 10.0], [315.0, 248.0, 54.0, 10.0]]
+    t = 11.6
+    for b in boxes:
+        c._relink(_snap(t), np.array([4]), np.array([b]))
+        t += 0.1
+    c._relink(_snap(t), np.zeros(0, int), np.zeros((0, 4)))
+    assert 4 in c._lost
+    return c._relink(_snap(25.0), np.array([190]), np.array([[302.0, 248.0, 8.0, 10.0]])).tolist()
+
+
+def test_shape_min_gives_the_identity_lost_at_a_widened_box():
+    assert _shape_min() == [190]  # refused by the aspect ratio and the size check
+    assert _shape_min(relink_shape_min_n_ir=5) == [4]
+    assert _shape_min(ir=False, relink_shape_min_n_ir=5) == [190]
+    assert _shape_min(relink_shape_min_n_ir=3) == [190]  # its last 3 boxes were all wide
