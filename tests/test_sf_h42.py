@@ -61,13 +61,15 @@ def test_block_waits_only_its_time():
     assert rep.tolist() == [317]
 
 
-def _shape_min(ir=True, **kw):
+def _shape_min(ir=True, last=None, **kw):
     """ir 43: the sailboat's boxes 8 x 10 px, widened to 55 x 11 px for its last 3 frames, then lost; 13 s later its
     own new 8 x 10 px cluster beside it."""
     c = FeatureClusterer(ClusterParams(**kw))
     c._ir = ir
     boxes = [[314.0, 248.0, 8.0, 11.0], [314.0, 249.0, 8.0, 10.0], [315.0, 248.0, 55.0, 11.0],
              [315.0, 248.0, 54.0, 10.0], [315.0, 248.0, 54.0, 10.0]]
+    if last is not None:
+        boxes[-1] = last
     t = 11.6
     for b in boxes:
         c._relink(_snap(t), np.array([4]), np.array([b]))
@@ -82,3 +84,10 @@ def test_shape_min_gives_the_identity_lost_at_a_widened_box():
     assert _shape_min(relink_shape_min_n_ir=5) == [4]
     assert _shape_min(ir=False, relink_shape_min_n_ir=5) == [190]
     assert _shape_min(relink_shape_min_n_ir=3) == [190]  # its last 3 boxes were all wide
+
+
+def test_shape_min_only_for_a_box_grown_before_the_loss():
+    # its box at the loss 100 x 8 px, 10 times its smallest (8 x 10 px): grown, unless the ratio asked is 20
+    c = _shape_min(last=[315.0, 248.0, 100.0, 8.0], relink_shape_min_n_ir=5, relink_shape_min_grown_ir=20.0)
+    assert c == [190]  # 800 px < 20 x 80 px: the smallest box is not used
+    assert _shape_min(last=[315.0, 248.0, 100.0, 8.0], relink_shape_min_n_ir=5) == [4]

@@ -3095,7 +3095,14 @@ class ClusterParams:
     against the smallest of the lost identity's last this many reported boxes (carried by the zoom change): a
     small boat's box widens on infrared for a few frames over a neighbour's feature before the loss (sim ``ir``
     43 at 11.9 s: the sailboat's 8 x 10 px box became 55 x 11 px for 0.3 s, and at 25.0 s its own new 8 x 10 px
-    cluster was refused its identity by the aspect ratio and the size check).
+    cluster was refused its identity by the aspect ratio and the size check).  ``relink_shape_min_grown_ir`` (a
+    ratio; 2; acts only with ``relink_shape_min_n_ir``; 0: no check): only where the expected box is at least
+    this many times the smallest one's area (the box grew before the loss; sim ``ir`` 7 at 18.0 s, without it:
+    the sailboat's identity lost at a 5 x 8 px box passed the aspect check against its 6 x 9 px box of 0.5 s
+    before and went to the cargo ship's cluster 63 px away).
+    ``relink_shape_any_ir`` (session 31, h42; False: off; with ``relink_shape_min_n_ir``): the aspect check
+    passes against any of those last boxes, not only the smallest (sim ``ir`` 42 at 9.9 s: the cargo ship's
+    identity lost at a 12 x 23 px sliver after 73 x 30 px boxes; its new 53 x 13 px cluster refused, 7.8).
 
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
@@ -3353,6 +3360,8 @@ class ClusterParams:
     relink_area_med_n_ir: int = 5
     relink_shape_block_s_ir: float = 0.0
     relink_shape_min_n_ir: int = 0
+    relink_shape_any_ir: bool = False
+    relink_shape_min_grown_ir: float = 2.0
 
 
 class FeatureClusterer:
@@ -4206,15 +4215,23 @@ class FeatureClusterer:
                 if sm is not None:  # relink_shape_min_n_ir: its smallest last box, carried by the zoom change
                     sm = np.asarray(sm[0], np.float64) * np.array([1.0, 1.0, self._zoom / max(sm[1], 1e-6),
                                                                    self._zoom / max(sm[1], 1e-6)])
+                    if float(lb[2] * lb[3]) < p.relink_shape_min_grown_ir * float(sm[2] * sm[3]):
+                        sm = None  # relink_shape_min_grown_ir: its box had not grown before the loss
                 if (p.relink_aspect_ratio > 0 and k not in self._lost_side and min(lb[2], lb[3]) >= 2.0
                         and min(boxes[i][2], boxes[i][3]) >= 2.0):
                     # session 24 (H9): a boat keeps its shape (a mast's tall box is not a hull's long one)
                     ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(lb[2]) / float(lb[3]))
                     if max(ar, 1.0 / ar) > p.relink_aspect_ratio:
                         ok_sm = False
-                        if sm is not None and min(sm[2], sm[3]) >= 2.0:
-                            ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(sm[2]) / float(sm[3]))
-                            ok_sm = max(ar, 1.0 / ar) <= p.relink_aspect_ratio
+                        if sm is not None:
+                            # relink_shape_any_ir: any of its last boxes' shapes, else its smallest box's
+                            sm_all = [sm] if self._lost_small[k][2] is None else self._lost_small[k][2]
+                            for b_ in sm_all:
+                                if min(b_[2], b_[3]) >= 2.0:
+                                    ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(b_[2]) / float(b_[3]))
+                                    if max(ar, 1.0 / ar) <= p.relink_aspect_ratio:
+                                        ok_sm = True
+                                        break
                         if not ok_sm:
                             if block_on and d <= 0.0 and t - tl <= p.relink_shape_block_s_ir + 1e-9:
                                 blocked.add(i)  # relink_shape_block_s_ir: it covers a just-lost identity
@@ -4433,7 +4450,8 @@ class FeatureClusterer:
                 if p.relink_shape_min_n_ir > 0 and self._ir and self._box_hist.get(k):
                     bh = self._box_hist[k]
                     j_ = int(np.argmin([b_[2] * b_[3] * (self._zoom / max(z_, 1e-6)) ** 2 for b_, z_ in bh]))
-                    self._lost_small[k] = (bh[j_][0].copy(), bh[j_][1])
+                    self._lost_small[k] = (bh[j_][0].copy(), bh[j_][1],
+                                           [b_.copy() for b_, _ in bh] if p.relink_shape_any_ir else None)
                 else:
                     self._lost_small.pop(k, None)
                 if p.relink_area_med_n_ir > 0 and self._ir and self._area_hist.get(k):
