@@ -3102,7 +3102,10 @@ class ClusterParams:
     before and went to the cargo ship's cluster 63 px away).
     ``relink_shape_any_ir`` (session 31, h42; False: off; with ``relink_shape_min_n_ir``): the aspect check
     passes against any of those last boxes, not only the smallest (sim ``ir`` 42 at 9.9 s: the cargo ship's
-    identity lost at a 12 x 23 px sliver after 73 x 30 px boxes; its new 53 x 13 px cluster refused, 7.8).
+    identity lost at a 12 x 23 px sliver after 73 x 30 px boxes; its new 53 x 13 px cluster refused, 7.8), not
+    restricted by ``relink_shape_min_grown_ir``; ``relink_shape_any_area`` (a ratio, 4; 0: no check): only those
+    boxes whose area is within this ratio of the new cluster's (``ir`` 7: the cargo ship's 52 x 13 px cluster is
+    10.6 times the sailboat's 8 x 8 px box).
 
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
@@ -3362,6 +3365,7 @@ class ClusterParams:
     relink_shape_min_n_ir: int = 0
     relink_shape_any_ir: bool = False
     relink_shape_min_grown_ir: float = 2.0
+    relink_shape_any_area: float = 4.0
 
 
 class FeatureClusterer:
@@ -4223,15 +4227,25 @@ class FeatureClusterer:
                     ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(lb[2]) / float(lb[3]))
                     if max(ar, 1.0 / ar) > p.relink_aspect_ratio:
                         ok_sm = False
-                        if sm is not None:
-                            # relink_shape_any_ir: any of its last boxes' shapes, else its smallest box's
-                            sm_all = [sm] if self._lost_small[k][2] is None else self._lost_small[k][2]
-                            for b_ in sm_all:
-                                if min(b_[2], b_[3]) >= 2.0:
-                                    ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(b_[2]) / float(b_[3]))
-                                    if max(ar, 1.0 / ar) <= p.relink_aspect_ratio:
-                                        ok_sm = True
-                                        break
+                        if sm is not None and min(sm[2], sm[3]) >= 2.0:
+                            ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(sm[2]) / float(sm[3]))
+                            ok_sm = max(ar, 1.0 / ar) <= p.relink_aspect_ratio
+                        e_sm = self._lost_small.get(k) if shape_min_on else None
+                        if not ok_sm and e_sm is not None and e_sm[2] is not None:
+                            # relink_shape_any_ir: any of its last boxes' shapes, of an area within
+                            # relink_shape_any_area of the new cluster's
+                            a_new = float(boxes[i][2] * boxes[i][3])
+                            for b_ in e_sm[2]:
+                                if min(b_[2], b_[3]) < 2.0:
+                                    continue
+                                a_b = float(b_[2] * b_[3]) * (self._zoom / max(e_sm[1], 1e-6)) ** 2
+                                if (p.relink_shape_any_area > 0
+                                        and max(a_b, a_new) > p.relink_shape_any_area * max(min(a_b, a_new), 1e-6)):
+                                    continue
+                                ar = (float(boxes[i][2]) / float(boxes[i][3])) / (float(b_[2]) / float(b_[3]))
+                                if max(ar, 1.0 / ar) <= p.relink_aspect_ratio:
+                                    ok_sm = True
+                                    break
                         if not ok_sm:
                             if block_on and d <= 0.0 and t - tl <= p.relink_shape_block_s_ir + 1e-9:
                                 blocked.add(i)  # relink_shape_block_s_ir: it covers a just-lost identity
