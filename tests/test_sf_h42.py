@@ -91,3 +91,24 @@ def test_shape_min_only_for_a_box_grown_before_the_loss():
     c = _shape_min(last=[315.0, 248.0, 100.0, 8.0], relink_shape_min_n_ir=5, relink_shape_min_grown_ir=20.0)
     assert c == [190]  # 800 px < 20 x 80 px: the smallest box is not used
     assert _shape_min(last=[315.0, 248.0, 100.0, 8.0], relink_shape_min_n_ir=5) == [4]
+
+
+def _any(**kw):
+    """ir 42: the cargo ship's boxes 73 x 30 px, then a 12 x 23 px sliver at its loss; its new 53 x 13 px cluster."""
+    c = FeatureClusterer(ClusterParams(**kw))
+    c._ir = True
+    t = 5.0
+    for b in ([311.0, 229.0, 73.0, 30.0],) * 4 + ([371.0, 229.0, 12.0, 23.0],):
+        c._relink(_snap(t), np.array([11]), np.array([b]))
+        t += 0.1
+    c._relink(_snap(t), np.zeros(0, int), np.zeros((0, 4)))
+    assert 11 in c._lost
+    return c._relink(_snap(9.9), np.array([84]), np.array([[377.0, 238.0, 53.0, 13.0]])).tolist()
+
+
+def test_shape_any_passes_against_any_last_box_of_a_like_area():
+    assert _any() == [84]  # refused by the aspect ratio against the sliver (7.8)
+    assert _any(relink_shape_min_n_ir=5) == [84]  # the sliver is its smallest box: no help
+    assert _any(relink_shape_min_n_ir=5, relink_shape_any_ir=True) == [11]  # its 73 x 30 px boxes: 1.7, area 3.2x
+    assert _any(relink_shape_min_n_ir=5, relink_shape_any_ir=True, relink_shape_any_area=3.0) == [84]
+    assert ClusterParams().relink_shape_any_ir is False
