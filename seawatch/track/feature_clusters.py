@@ -1648,6 +1648,18 @@ def _inside_frac(a, b, x_only=False) -> float:
     return max(iw, 0.0) * max(ih, 0.0) / (aw * ah)
 
 
+def _inside_frac_many(a, b) -> np.ndarray:
+    """:func:`_inside_frac` row by row for two (N, 4) arrays of boxes ``x, y, w, h``."""
+    a = np.asarray(a, np.float64).reshape(-1, 4)
+    b = np.asarray(b, np.float64).reshape(-1, 4)
+    aw, ah = np.maximum(a[:, 2], 1.0), np.maximum(a[:, 3], 1.0)
+    iw = np.minimum(a[:, 0] + aw, b[:, 0] + b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
+    ih = np.minimum(a[:, 1] + ah, b[:, 1] + b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
+    with np.errstate(invalid="ignore"):
+        f = np.maximum(iw, 0.0) * np.maximum(ih, 0.0) / (aw * ah)
+    return np.where(np.isfinite(f), f, 1.0)
+
+
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
               wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0,
@@ -3082,6 +3094,18 @@ class ClusterParams:
     the box at the loss can be the largest of them.  On sim ``ir`` 41 (24.7 s) the sailboat's identity, lost at
     a 17 x 17 px box (its boxes before: 8 x 17-19), was refused to its own 8 x 8 px cluster (< 0.3 of 289 px).
 
+    Session 31 (h41, the ferry and the small boat beside it on infrared, class A): ``grow_core_in_ir``
+    (0: off; infrared frames only; a fraction of area): a grown box (``grow_boxes``) that holds less than this
+    fraction of its cluster's core (the box members' extent) is not kept: the box stays the members' own, as
+    where nothing was grown. The growing takes the bright components touching the core; a small boat's core
+    that touches a passing ship's hull grows onto the hull, and ``grow_hint`` then holds it there (sim ``ir`` 19
+    at 35.0-36.2 s: the small boat's 5 features in 12 x 14 px, their box grown to 73 x 16 px over the ferry's
+    hull, holding 5 % of the core; the joined report then took the small boat's older identity).
+    ``merge_id_apart_ir`` (False: off): ``merge_id_apart`` on infrared frames only (two overlapping reports whose
+    largest clusters move differently, by more than ``merge_id_dv_px_s``, and of which neither holds
+    ``merge_id_ratio`` times the other's features, are not joined; sim ``ir`` 13 at 36.8 s: the ferry's cluster,
+    6 features at 5.4 px/s, and the small boat's, 6 at -0.8 px/s, joined under the small boat's older identity).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3328,6 +3352,8 @@ class ClusterParams:
     relink_side_app_near_ir: bool = False
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
+    grow_core_in_ir: float = 0.0
+    merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
     relink_predict_side_s: float = 0.0
     relink_predict_side_ir: bool = False
@@ -5131,6 +5157,12 @@ class FeatureClusterer:
                 # before (carried by the camera) is undone: the box grown again with the all-columns reference
                 boxes, found = self._wake_core_guard(snap, fi, cids, img, pre_grow, cores_now, boxes, found, trail,
                                                      sign_side, hints, cores_retry)
+            if self._ir and p.grow_core_in_ir > 0 and found.any():
+                # session 31 (h41): a grown box holding too little of its core is not kept (a passing hull)
+                bad = found & (_inside_frac_many(cores_now, boxes) < p.grow_core_in_ir)
+                if bad.any():
+                    boxes = np.where(bad[:, None], pre_grow, boxes)
+                    found = found & ~bad
             if p.wake_track_s > 0 and p.wake_frac > 0:
                 self._track_store(snap, cids, boxes)
             if p.grow_hint:
@@ -5246,7 +5278,8 @@ class FeatureClusterer:
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
                                                          p.merge_keep_gap_h, self._apart or None,
                                                          p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
-                                                         p.merge_id_apart, prev, p.merge_id_keep_iou,
+                                                         p.merge_id_apart or (self._ir and p.merge_id_apart_ir),
+                                                         prev, p.merge_id_keep_iou,
                                                          p.merge_id_now_iou_ir if self._ir else 0.0)
             if p.merge_id_keep_iou > 0:
                 self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
