@@ -82,3 +82,27 @@ def test_merge_id_apart_ir_on_infrared_only(monkeypatch):
         for fi in range(4):
             cl.update(snap(xy + np.array([[0.3 * fi, 0.0]] * 3 + [[-0.3 * fi, 0.0]] * 3), v, 0.1 * fi, fi), ir=ir)
         assert seen and all(x is want for x in seen), (ir, on, seen)
+
+
+# sim ir 13 at 36.8 s: the small boat's cluster 5 (older) and the ferry's 26, 6 features each, moving apart
+IDS13 = np.array([5, 26])
+BOXES13 = np.array([[446.0, 261.0, 16.0, 16.0], [386.0, 250.0, 76.0, 15.0]])
+COUNT13 = np.array([6, 6])
+VEL13 = np.array([[-0.8, -0.1], [5.4, -0.1]])
+PREV13 = {5: np.array([446.0, 261.0, 16.0, 16.0]), 26: np.array([407.0, 251.0, 7.0, 4.0])}  # the ferry's box held small
+
+
+def _merge13(any_, counts=COUNT13, prev=PREV13):
+    c, b, _, _ = fc._merge_overlapping(IDS13, BOXES13, counts, VEL13, 0.2, VEL13, id_dv=3.0, id_ratio=2.0,
+                                       prev=prev, keep_iou=0.3, keep_now_iou=0.5, keep_now_any=any_)
+    return c.tolist()
+
+
+def test_merge_id_now_any_gives_the_joined_report_to_the_member_covering_it():
+    assert ClusterParams().merge_id_now_any_ir is False
+    assert _merge13(False) == [5]  # by age
+    assert _merge13(True) == [26]  # the ferry's own box covers the joined box (IoU 0.56)
+    # the id_dv rule's choice (a member with twice the features) is not undone
+    assert _merge13(True, counts=np.array([13, 6])) == [5]
+    # a member not reported in the frame before is not taken
+    assert _merge13(True, prev={5: PREV13[5]}) == [5]

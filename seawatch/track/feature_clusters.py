@@ -2058,7 +2058,7 @@ def _box_iou(a, b) -> float:
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
                        sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
                        id_ratio=2.0, id_apart=False, prev=None, keep_iou=0.0,
-                       keep_now_iou=0.0):
+                       keep_now_iou=0.0, keep_now_any=False):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -2092,7 +2092,11 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     frame by frame as the join comes and goes.  ``keep_now_iou`` (0: off; session 29, with ``prev`` and
     ``keep_iou``): where no member passes ``keep_iou``, the member whose box in ``prev`` overlaps the
     joined box most (below ``keep_iou``) takes the identity when its own box of this frame overlaps
-    the joined box by at least ``keep_now_iou`` (the frame before's box can be a part of the boat)."""
+    the joined box by at least ``keep_now_iou`` (the frame before's box can be a part of the boat).
+    ``keep_now_any`` (False: off; session 31, h41, with ``keep_now_iou``): where that member's own box does not
+    confirm it and the ``id_dv`` rule did not choose, the member in ``prev`` whose own box of this frame overlaps
+    the joined box most, by at least ``keep_now_iou``, takes the identity, unless the oldest holds ``id_ratio``
+    times its features (a report joined by age alone goes to the boat it covers)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     own = {int(c): boxes[q].copy() for q, c in enumerate(cids)} if keep_now_iou > 0 else {}  # before any join
@@ -2149,6 +2153,7 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 count[i] += count[j]
                 members[i] += members[j]
                 alive[j] = False
+    by_dv = set()  # the reports whose identity the id_dv rule chose
     if v0 is not None:
         pos = {int(c): q for q, c in enumerate(cids)}
         cids = cids.copy()
@@ -2159,6 +2164,7 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             big = max(q, key=lambda x: (n0[x], -x))
             if n0[big] < id_ratio * n0[q[0]]:
                 continue
+            by_dv.add(int(i))
             alike = []
             for x in q:
                 dv = v0[x] - v0[big]
@@ -2189,6 +2195,17 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                         if u > top_iou:
                             top, top_iou = c, u
                 if top is not None and _box_iou(boxes[i], own[top]) >= keep_now_iou:
+                    best = top
+                elif keep_now_any and int(i) not in by_dv:
+                    # session 31 (h41): any member reported in the frame before whose own box now covers the
+                    # joined box, where the identity was left to the oldest by age alone
+                    top, top_iou = None, keep_now_iou
+                    n_old = n0[pos0[min(members[i])]]
+                    for c in members[i]:
+                        if c in prev and id_ratio * n0[pos0[c]] > n_old:  # not far fewer features than the oldest
+                            u = _box_iou(boxes[i], own[c])
+                            if u >= top_iou and (top is None or u > top_iou):
+                                top, top_iou = c, u
                     best = top
             if best is not None:
                 cids[i] = best
@@ -3101,6 +3118,12 @@ class ClusterParams:
     that touches a passing ship's hull grows onto the hull, and ``grow_hint`` then holds it there (sim ``ir`` 19
     at 35.0-36.2 s: the small boat's 5 features in 12 x 14 px, their box grown to 73 x 16 px over the ferry's
     hull, holding 5 % of the core; the joined report then took the small boat's older identity).
+    ``merge_id_now_any_ir`` (False: off; with ``merge_id_now_iou_ir``): where neither ``merge_id_keep_iou`` nor
+    ``merge_id_now_iou_ir``'s member decides and ``merge_id_dv_px_s``'s rule left the identity to the oldest by age,
+    the member reported in the frame before whose own box of this frame overlaps the joined box most, by at least
+    ``merge_id_now_iou_ir``, keeps its identity (sim ``ir`` 13 at 36.8 s: the ferry's box, held small the frame
+    before, grew back to 76 x 15 px and touched the small boat's 16 x 16 px box; 6 features each, the small boat's
+    older identity won the joined report by age; the ferry's own box overlaps the joined one by 0.56).
     ``merge_id_apart_ir`` (False: off): ``merge_id_apart`` on infrared frames only (two overlapping reports whose
     largest clusters move differently, by more than ``merge_id_dv_px_s``, and of which neither holds
     ``merge_id_ratio`` times the other's features, are not joined; sim ``ir`` 13 at 36.8 s: the ferry's cluster,
@@ -3353,6 +3376,7 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     grow_core_in_ir: float = 0.0
+    merge_id_now_any_ir: bool = False
     merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
     relink_predict_side_s: float = 0.0
@@ -5280,7 +5304,8 @@ class FeatureClusterer:
                                                          p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
                                                          p.merge_id_apart or (self._ir and p.merge_id_apart_ir),
                                                          prev, p.merge_id_keep_iou,
-                                                         p.merge_id_now_iou_ir if self._ir else 0.0)
+                                                         p.merge_id_now_iou_ir if self._ir else 0.0,
+                                                         self._ir and p.merge_id_now_any_ir)
             if p.merge_id_keep_iou > 0:
                 self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
                 self._report_last_t = fi
