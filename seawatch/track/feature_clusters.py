@@ -3118,6 +3118,9 @@ class ClusterParams:
     that touches a passing ship's hull grows onto the hull, and ``grow_hint`` then holds it there (sim ``ir`` 19
     at 35.0-36.2 s: the small boat's 5 features in 12 x 14 px, their box grown to 73 x 16 px over the ferry's
     hull, holding 5 % of the core; the joined report then took the small boat's older identity).
+    ``grow_core_hint_ir`` (False: off; with ``grow_core_in_ir``): such a box is replaced by the cluster's box grown in
+    the frame before (``grow_hint``'s, carried by the camera) where that one holds the core, rather than by the
+    members' own box (sim ``ir`` 8 at 35.8 s: the fishing boat's members' box is a part of the boat).
     ``merge_id_now_any_ir`` (False: off; with ``merge_id_now_iou_ir``): where neither ``merge_id_keep_iou`` nor
     ``merge_id_now_iou_ir``'s member decides and ``merge_id_dv_px_s``'s rule left the identity to the oldest by age,
     the member reported in the frame before whose own box of this frame overlaps the joined box most, by at least
@@ -3376,6 +3379,7 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     grow_core_in_ir: float = 0.0
+    grow_core_hint_ir: bool = False
     merge_id_now_any_ir: bool = False
     merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
@@ -5185,8 +5189,17 @@ class FeatureClusterer:
                 # session 31 (h41): a grown box holding too little of its core is not kept (a passing hull)
                 bad = found & (_inside_frac_many(cores_now, boxes) < p.grow_core_in_ir)
                 if bad.any():
-                    boxes = np.where(bad[:, None], pre_grow, boxes)
-                    found = found & ~bad
+                    back = pre_grow
+                    if p.grow_core_hint_ir and hints is not None:
+                        # the box grown in the frame before (carried), where it holds the core
+                        okh = np.isfinite(hints).all(axis=1)
+                        okh &= _inside_frac_many(cores_now, np.where(okh[:, None], hints, 0.0)) >= p.grow_core_in_ir
+                        back = np.where(okh[:, None], hints, pre_grow)
+                        bad_keep = bad & okh
+                    else:
+                        bad_keep = np.zeros_like(bad)
+                    boxes = np.where(bad[:, None], back, boxes)
+                    found = found & ~(bad & ~bad_keep)
             if p.wake_track_s > 0 and p.wake_frac > 0:
                 self._track_store(snap, cids, boxes)
             if p.grow_hint:
