@@ -106,3 +106,41 @@ def test_merge_id_now_any_gives_the_joined_report_to_the_member_covering_it():
     assert _merge13(True, counts=np.array([13, 6])) == [5]
     # a member not reported in the frame before is not taken
     assert _merge13(True, prev={5: PREV13[5]}) == [5]
+
+
+def _run_hint(monkeypatch, hint):
+    """Good growth (2 px around the core) for 3 frames, then a box off the core: the reported boxes."""
+    calls = []
+
+    def fake_grow(img, boxes, cores, *a, **k):
+        b = np.array(boxes, np.float64, copy=True).reshape(-1, 4)
+        calls.append(1)
+        if len(calls) <= 3:
+            b[:, 0] -= 2.0
+            b[:, 2] += 4.0
+        else:
+            b[:] = [40.0, 40.0, 70.0, 21.0]
+        return b, np.full(len(b), 50.0), np.ones(len(b), bool)
+
+    monkeypatch.setattr(fc, "grow_boxes", fake_grow)
+    cl = FeatureClusterer(ClusterParams(grow_core_in_ir=0.5, grow_core_hint_ir=hint, confirm_s=0.0, relink_s=0.0))
+    img = np.full((160, 240), 120, np.uint8)
+    xy0 = np.array([[100.0, 60.0], [104.0, 62.0], [108.0, 60.0], [112.0, 61.0]])
+    out = []
+    for fi in range(6):
+        xy = xy0 + [0.3 * fi, 0.0]
+        _, tracks = cl.update(snap(xy, [[3.0, 0.0]] * 4, 0.1 * fi, fi, shape=(160, 240)), img, ir=True)
+        out.append(np.asarray(tracks.boxes[0], float) if len(tracks) else None)
+    return out
+
+
+def test_grow_core_hint_falls_back_on_the_last_grown_box(monkeypatch):
+    assert ClusterParams().grow_core_hint_ir is False
+    plain = _run_hint(monkeypatch, False)
+    hint = _run_hint(monkeypatch, True)
+    good = hint[2]
+    assert good is not None
+    for b in hint[3:]:  # the box grown the frame before, kept (the camera still)
+        np.testing.assert_allclose(b, good, atol=1e-6)
+    for b in plain[3:]:  # the members' own box: narrower than the grown one
+        assert b is not None and b[2] < good[2]
