@@ -123,7 +123,7 @@ def _run_hint(monkeypatch, hint):
         return b, np.full(len(b), 50.0), np.ones(len(b), bool)
 
     monkeypatch.setattr(fc, "grow_boxes", fake_grow)
-    cl = FeatureClusterer(ClusterParams(grow_core_in_ir=0.5, grow_core_hint_ir=hint, confirm_s=0.0, relink_s=0.0))
+    cl = FeatureClusterer(ClusterParams(grow_core_in_ir=0.5, grow_core_hint_ir=0.5 if hint else 0.0, confirm_s=0.0, relink_s=0.0))
     img = np.full((160, 240), 120, np.uint8)
     xy0 = np.array([[100.0, 60.0], [104.0, 62.0], [108.0, 60.0], [112.0, 61.0]])
     out = []
@@ -135,7 +135,7 @@ def _run_hint(monkeypatch, hint):
 
 
 def test_grow_core_hint_falls_back_on_the_last_grown_box(monkeypatch):
-    assert ClusterParams().grow_core_hint_ir is False
+    assert ClusterParams().grow_core_hint_ir == 0.0
     plain = _run_hint(monkeypatch, False)
     hint = _run_hint(monkeypatch, True)
     good = hint[2]

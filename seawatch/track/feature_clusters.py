@@ -3118,9 +3118,11 @@ class ClusterParams:
     that touches a passing ship's hull grows onto the hull, and ``grow_hint`` then holds it there (sim ``ir`` 19
     at 35.0-36.2 s: the small boat's 5 features in 12 x 14 px, their box grown to 73 x 16 px over the ferry's
     hull, holding 5 % of the core; the joined report then took the small boat's older identity).
-    ``grow_core_hint_ir`` (False: off; with ``grow_core_in_ir``): such a box is replaced by the cluster's box grown in
-    the frame before (``grow_hint``'s, carried by the camera) where that one holds the core, rather than by the
-    members' own box (sim ``ir`` 8 at 35.8 s: the fishing boat's members' box is a part of the boat).
+    ``grow_core_hint_ir`` (0: off; with ``grow_core_in_ir``; a fraction of area): such a box is replaced by the
+    cluster's box grown in the frame before (``grow_hint``'s, carried by the camera) where that one holds at least
+    this fraction of the core, rather than by the members' own box (sim ``ir`` 8 at 35.8 s: the fishing boat's
+    members' box is a part of the boat; its box of the frame before holds the whole core. Sim ``ir`` 2 at 28.8 s:
+    a box of the frame before already grown half onto the boat above holds 0.46 of it, and must not be kept).
     ``merge_id_now_any_ir`` (False: off; with ``merge_id_now_iou_ir``): where neither ``merge_id_keep_iou`` nor
     ``merge_id_now_iou_ir``'s member decides and ``merge_id_dv_px_s``'s rule left the identity to the oldest by age,
     the member reported in the frame before whose own box of this frame overlaps the joined box most, by at least
@@ -3379,7 +3381,7 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     grow_core_in_ir: float = 0.0
-    grow_core_hint_ir: bool = False
+    grow_core_hint_ir: float = 0.0
     merge_id_now_any_ir: bool = False
     merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
@@ -5190,10 +5192,10 @@ class FeatureClusterer:
                 bad = found & (_inside_frac_many(cores_now, boxes) < p.grow_core_in_ir)
                 if bad.any():
                     back = pre_grow
-                    if p.grow_core_hint_ir and hints is not None:
+                    if p.grow_core_hint_ir > 0 and hints is not None:
                         # the box grown in the frame before (carried), where it holds the core
                         okh = np.isfinite(hints).all(axis=1)
-                        okh &= _inside_frac_many(cores_now, np.where(okh[:, None], hints, 0.0)) >= p.grow_core_in_ir
+                        okh &= _inside_frac_many(cores_now, np.where(okh[:, None], hints, 0.0)) >= p.grow_core_hint_ir
                         back = np.where(okh[:, None], hints, pre_grow)
                         bad_keep = bad & okh
                     else:
