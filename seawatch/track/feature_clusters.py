@@ -5320,7 +5320,7 @@ class FeatureClusterer:
                                                          p.merge_id_apart or (self._ir and p.merge_id_apart_ir),
                                                          prev, p.merge_id_keep_iou,
                                                          p.merge_id_now_iou_ir if self._ir else 0.0,
-                                                         self._ir and p.merge_id_now_any_ir)
+                                                         keep_now_any=self._ir and p.merge_id_now_any_ir)
             if p.merge_id_keep_iou > 0:
                 self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
                 self._report_last_t = fi
