@@ -1648,6 +1648,18 @@ def _inside_frac(a, b, x_only=False) -> float:
     return max(iw, 0.0) * max(ih, 0.0) / (aw * ah)
 
 
+def _inside_frac_many(a, b) -> np.ndarray:
+    """:func:`_inside_frac` row by row for two (N, 4) arrays of boxes ``x, y, w, h``."""
+    a = np.asarray(a, np.float64).reshape(-1, 4)
+    b = np.asarray(b, np.float64).reshape(-1, 4)
+    aw, ah = np.maximum(a[:, 2], 1.0), np.maximum(a[:, 3], 1.0)
+    iw = np.minimum(a[:, 0] + aw, b[:, 0] + b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
+    ih = np.minimum(a[:, 1] + ah, b[:, 1] + b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
+    with np.errstate(invalid="ignore"):
+        f = np.maximum(iw, 0.0) * np.maximum(ih, 0.0) / (aw * ah)
+    return np.where(np.isfinite(f), f, 1.0)
+
+
 def _grow_one(img, box, core_box, gx, gy, large, b, k_sigma, min_contrast, max_fill, peak_frac,
               waterline_frac=0.0, wake_frac=0.0, trail=0, top_frac=0.0, cut_core_frac=0.0, cut_core_undo=False,
               wake_thick=False, sign_frac=0.0, cover_wide=False, sign_side=0, top_halo=0.0, top_min_px=0.0,
@@ -2046,7 +2058,7 @@ def _box_iou(a, b) -> float:
 def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h=0.0, max_dv=0.0, min_h=0.0,
                        sticky=None, groups=None, sticky_gap_px=0.0, sticky_gap_h=0.0, apart=None, id_dv=0.0,
                        id_ratio=2.0, id_apart=False, prev=None, keep_iou=0.0,
-                       keep_now_iou=0.0):
+                       keep_now_iou=0.0, keep_now_any=False):
     """Report clusters whose boxes overlap by at least ``min_overlap`` of the smaller box as one
     object (two clusters grown to the same object): the oldest identity stays, the box is the
     union, the velocity the feature-weighted mean.  With ``gap_h`` > 0 and ``rel_vel`` (each
@@ -2080,7 +2092,11 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
     frame by frame as the join comes and goes.  ``keep_now_iou`` (0: off; session 29, with ``prev`` and
     ``keep_iou``): where no member passes ``keep_iou``, the member whose box in ``prev`` overlaps the
     joined box most (below ``keep_iou``) takes the identity when its own box of this frame overlaps
-    the joined box by at least ``keep_now_iou`` (the frame before's box can be a part of the boat)."""
+    the joined box by at least ``keep_now_iou`` (the frame before's box can be a part of the boat).
+    ``keep_now_any`` (False: off; session 31, h41, with ``keep_now_iou``): where that member's own box does not
+    confirm it and the ``id_dv`` rule did not choose, the member in ``prev`` whose own box of this frame overlaps
+    the joined box most, by at least ``keep_now_iou``, takes the identity, unless the oldest holds ``id_ratio``
+    times its features (a report joined by age alone goes to the boat it covers)."""
     order = np.argsort(cids, kind="stable")  # oldest (smallest) identity first
     cids, boxes, count, vel = cids[order], boxes[order].copy(), count[order].copy(), vel[order].copy()
     own = {int(c): boxes[q].copy() for q, c in enumerate(cids)} if keep_now_iou > 0 else {}  # before any join
@@ -2137,6 +2153,7 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                 count[i] += count[j]
                 members[i] += members[j]
                 alive[j] = False
+    by_dv = set()  # the reports whose identity the id_dv rule chose
     if v0 is not None:
         pos = {int(c): q for q, c in enumerate(cids)}
         cids = cids.copy()
@@ -2147,6 +2164,7 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
             big = max(q, key=lambda x: (n0[x], -x))
             if n0[big] < id_ratio * n0[q[0]]:
                 continue
+            by_dv.add(int(i))
             alike = []
             for x in q:
                 dv = v0[x] - v0[big]
@@ -2177,6 +2195,17 @@ def _merge_overlapping(cids, boxes, count, vel, min_overlap, rel_vel=None, gap_h
                         if u > top_iou:
                             top, top_iou = c, u
                 if top is not None and _box_iou(boxes[i], own[top]) >= keep_now_iou:
+                    best = top
+                elif keep_now_any and int(i) not in by_dv:
+                    # session 31 (h41): any member reported in the frame before whose own box now covers the
+                    # joined box, where the identity was left to the oldest by age alone
+                    top, top_iou = None, keep_now_iou
+                    n_old = n0[pos0[min(members[i])]]
+                    for c in members[i]:
+                        if c in prev and id_ratio * n0[pos0[c]] > n_old:  # not far fewer features than the oldest
+                            u = _box_iou(boxes[i], own[c])
+                            if u >= top_iou and (top is None or u > top_iou):
+                                top, top_iou = c, u
                     best = top
             if best is not None:
                 cids[i] = best
@@ -3107,6 +3136,29 @@ class ClusterParams:
     boxes whose area is within this ratio of the new cluster's (``ir`` 7: the cargo ship's 52 x 13 px cluster is
     10.6 times the sailboat's 8 x 8 px box).
 
+    Session 31 (h41, the ferry and the small boat beside it on infrared, class A): ``grow_core_in_ir``
+    (0: off; infrared frames only; a fraction of area): a grown box (``grow_boxes``) that holds less than this
+    fraction of its cluster's core (the box members' extent) is not kept: the box stays the members' own, as
+    where nothing was grown. The growing takes the bright components touching the core; a small boat's core
+    that touches a passing ship's hull grows onto the hull, and ``grow_hint`` then holds it there (sim ``ir`` 19
+    at 35.0-36.2 s: the small boat's 5 features in 12 x 14 px, their box grown to 73 x 16 px over the ferry's
+    hull, holding 5 % of the core; the joined report then took the small boat's older identity).
+    ``grow_core_hint_ir`` (0: off; with ``grow_core_in_ir``; a fraction of area): such a box is replaced by the
+    cluster's box grown in the frame before (``grow_hint``'s, carried by the camera) where that one holds at least
+    this fraction of the core, rather than by the members' own box (sim ``ir`` 8 at 35.8 s: the fishing boat's
+    members' box is a part of the boat; its box of the frame before holds the whole core. Sim ``ir`` 2 at 28.8 s:
+    a box of the frame before already grown half onto the boat above holds 0.46 of it, and must not be kept).
+    ``merge_id_now_any_ir`` (False: off; with ``merge_id_now_iou_ir``): where neither ``merge_id_keep_iou`` nor
+    ``merge_id_now_iou_ir``'s member decides and ``merge_id_dv_px_s``'s rule left the identity to the oldest by age,
+    the member reported in the frame before whose own box of this frame overlaps the joined box most, by at least
+    ``merge_id_now_iou_ir``, keeps its identity (sim ``ir`` 13 at 36.8 s: the ferry's box, held small the frame
+    before, grew back to 76 x 15 px and touched the small boat's 16 x 16 px box; 6 features each, the small boat's
+    older identity won the joined report by age; the ferry's own box overlaps the joined one by 0.56).
+    ``merge_id_apart_ir`` (False: off): ``merge_id_apart`` on infrared frames only (two overlapping reports whose
+    largest clusters move differently, by more than ``merge_id_dv_px_s``, and of which neither holds
+    ``merge_id_ratio`` times the other's features, are not joined; sim ``ir`` 13 at 36.8 s: the ferry's cluster,
+    6 features at 5.4 px/s, and the small boat's, 6 at -0.8 px/s, joined under the small boat's older identity).
+
     Session 28 (rule J, on never-run ``pan`` and ``ir`` seeds; docs/stable_features_log.md) turned on, as
     the defaults below: the wake steps ``wake_hold_s`` 1, ``wake_front`` 0.3, ``wake_core`` 0.5 (``wake_core_ir``
     0, ``wake_track_ir`` False), ``wake_core_iou`` 0.6; the coast steps ``coast_edge_seen``,
@@ -3353,6 +3405,10 @@ class ClusterParams:
     relink_side_app_near_ir: bool = False
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
+    grow_core_in_ir: float = 0.0
+    grow_core_hint_ir: float = 0.0
+    merge_id_now_any_ir: bool = False
+    merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
     relink_predict_side_s: float = 0.0
     relink_predict_side_ir: bool = False
@@ -5237,6 +5293,21 @@ class FeatureClusterer:
                 # before (carried by the camera) is undone: the box grown again with the all-columns reference
                 boxes, found = self._wake_core_guard(snap, fi, cids, img, pre_grow, cores_now, boxes, found, trail,
                                                      sign_side, hints, cores_retry)
+            if self._ir and p.grow_core_in_ir > 0 and found.any():
+                # session 31 (h41): a grown box holding too little of its core is not kept (a passing hull)
+                bad = found & (_inside_frac_many(cores_now, boxes) < p.grow_core_in_ir)
+                if bad.any():
+                    back = pre_grow
+                    if p.grow_core_hint_ir > 0 and hints is not None:
+                        # the box grown in the frame before (carried), where it holds the core
+                        okh = np.isfinite(hints).all(axis=1)
+                        okh &= _inside_frac_many(cores_now, np.where(okh[:, None], hints, 0.0)) >= p.grow_core_hint_ir
+                        back = np.where(okh[:, None], hints, pre_grow)
+                        bad_keep = bad & okh
+                    else:
+                        bad_keep = np.zeros_like(bad)
+                    boxes = np.where(bad[:, None], back, boxes)
+                    found = found & ~(bad & ~bad_keep)
             if p.wake_track_s > 0 and p.wake_frac > 0:
                 self._track_store(snap, cids, boxes)
             if p.grow_hint:
@@ -5352,8 +5423,10 @@ class FeatureClusterer:
                                                          sticky, groups, p.merge_keep_gap_px * self._zoom,
                                                          p.merge_keep_gap_h, self._apart or None,
                                                          p.merge_id_dv_px_s * self._zoom, p.merge_id_ratio,
-                                                         p.merge_id_apart, prev, p.merge_id_keep_iou,
-                                                         p.merge_id_now_iou_ir if self._ir else 0.0)
+                                                         p.merge_id_apart or (self._ir and p.merge_id_apart_ir),
+                                                         prev, p.merge_id_keep_iou,
+                                                         p.merge_id_now_iou_ir if self._ir else 0.0,
+                                                         keep_now_any=self._ir and p.merge_id_now_any_ir)
             if p.merge_id_keep_iou > 0:
                 self._report_last = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
                 self._report_last_t = fi
