@@ -3050,6 +3050,14 @@ class ClusterParams:
     fit (fewer boxes clear of the edges, as a boat that hugged the edge), it is carried as without the step.  ``relink_predict_side_ir`` (False:
     visible frames only; True: infrared too).
 
+    ``relink_predict_side_min_rate`` (session 31, h43; deg/s; 0: off; with ``relink_predict_side_s``): the
+    second place only for a boat whose fitted azimuth rate is at least this fast in magnitude; a slower fit
+    counts as none (carried as without the step).  A slow boat's second place is its carried box moved a
+    few pixels, which only slips a far new cluster inside the gate: on sim ``pan`` 173 the tug's identity
+    (fitted 0.05 deg/s) had its carried box 395 px from the sailboat's new cluster (gate 388) and its
+    second place 375 px, and took it at the pan's return (31.1 s).  The motorboat turns about 1 deg/s
+    and the rib 1.5, the sailboat and the tug 0.1-0.2.
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3332,6 +3340,7 @@ class ClusterParams:
     relink_predict_side_s: float = 0.0
     relink_predict_side_ir: bool = False
     relink_predict_side_win_s: float = 2.0
+    relink_predict_side_min_rate: float = 0.0
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
@@ -4412,6 +4421,8 @@ class FeatureClusterer:
                         # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
                         # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
                         r_ = self._dir_rate(k, t, dt)
+                        if r_ is not None and abs(r_[0]) < p.relink_predict_side_min_rate:
+                            r_ = None  # session 31 (h43): a slow boat's second place is its carried box, slipped
                         if r_ is not None:
                             self._lost_fit[k] = r_
                         else:
