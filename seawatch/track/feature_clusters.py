@@ -3058,6 +3058,21 @@ class ClusterParams:
     second place 375 px, and took it at the pan's return (31.1 s).  The motorboat turns about 1 deg/s
     and the rib 1.5, the sailboat and the tug 0.1-0.2.
 
+    ``relink_predict_side_near_px`` (session 31, h43; px, times the zoom; 0: off; with
+    ``relink_predict_side_s``): an identity lost with its box within this of the image's left or right edge
+    (not on it) also gets the second place: a boat about to be pushed out by the zoom is often lost a few
+    frames before its box reaches the edge.  On sim ``pan`` 110 the motorboat's identity was lost at 19.1 s
+    with its box at x 38 (zoom 1.4), its cluster grown onto the sailboat's mast, and came back at 28.5 s
+    350 px from its carried box (gate 349).  Only for the second place (the other side-edge steps keep
+    their own test).
+
+    ``relink_predict_side_med_box`` (session 31, h43; False: off; with ``relink_predict_side_s``): the
+    second place is a box of the identity's median width and height over the fit's window (px over the
+    zoom, times the zoom now), centred on its fitted line's direction at the loss moved on by its rate, at
+    its median elevation, rather than its last box's corners moved on: a last box grown onto a
+    neighbour (the mast, 49 px high against a 10-12 px hull on ``pan`` 110) made the relink's height
+    check through the zoom (``relink_height_zoom_min``) refuse the boat's own 19 px cluster.
+
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
     relink does not check it): a sliver clipped at the image's edge shows the boat's last columns, not its
@@ -3341,6 +3356,8 @@ class ClusterParams:
     relink_predict_side_ir: bool = False
     relink_predict_side_win_s: float = 2.0
     relink_predict_side_min_rate: float = 0.0
+    relink_predict_side_near_px: float = 0.0
+    relink_predict_side_med_box: bool = False
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
@@ -3421,6 +3438,7 @@ class FeatureClusterer:
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
+        self._lost_near: set = set()  # relink_predict_side_near_px: identities lost near (not at) the left or right edge
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
@@ -4138,7 +4156,7 @@ class FeatureClusterer:
                     # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
                     rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
                 gate = p.relink_px + rate * (t - tl) * self._zoom
-                if side_pred_on and d > gate and k in self._lost_fit and k in self._lost_side:
+                if side_pred_on and d > gate and k in self._lost_fit and (k in self._lost_side or k in self._lost_near):
                     # relink_predict_side_s (session 30, h39): or where its own fitted azimuth rate took it
                     if k not in side_pred:
                         side_pred[k] = self._side_pred_box(k, tl, t, fcam)
@@ -4393,6 +4411,12 @@ class FeatureClusterer:
                         self._lost_side.add(k)
                     else:
                         self._lost_side.discard(k)
+                    m_near = p.relink_predict_side_near_px * self._zoom
+                    if (side_pred_on and m_near > 0 and w_img is not None and k not in self._lost_side
+                            and (b[0] <= m_near or b[0] + b[2] >= w_img - m_near)):
+                        self._lost_near.add(k)  # session 31 (h43): lost near the side edge, about to leave
+                    else:
+                        self._lost_near.discard(k)
                 if p.relink_side_row_margin > 0:  # session 29 (h33): its row at the loss, not the carried one's
                     self._lost_row[k] = self._row_key(self._lost[k][1])
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
@@ -4416,7 +4440,7 @@ class FeatureClusterer:
                         a2, e2 = prev_cam.pixel_to_azel(np.array([c[0], c[0] + v[0]]), np.array([c[1], c[1] + v[1]]))
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
-                    if side_pred_on and k in self._lost_side:
+                    if side_pred_on and (k in self._lost_side or k in self._lost_near):
                         # relink_predict_side_s (session 30, h39): the rates fitted to its centre's directions over
                         # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
                         # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
@@ -4484,7 +4508,7 @@ class FeatureClusterer:
                 az_, el_ = fcam.pixel_to_azel(cb[:, 0] + 0.5 * cb[:, 2], cb[:, 1] + 0.5 * cb[:, 3])
                 for k, a_, e_ in zip(ks, np.atleast_1d(az_).tolist(), np.atleast_1d(el_).tolist()):
                     dq = self._dir_hist.setdefault(k, collections.deque())
-                    dq.append((t, a_, e_))
+                    dq.append((t, a_, e_, float(now[k][2]) / max(self._zoom, 1e-6), float(now[k][3]) / max(self._zoom, 1e-6)))
                     while dq and dq[0][0] < t - p.relink_predict_side_win_s - 1e-9:
                         dq.popleft()
             if len(self._dir_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
@@ -4506,6 +4530,8 @@ class FeatureClusterer:
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
         if len(self._swapped) > 2 * len(now) + 16:  # bounded memory
             self._swapped = {k for k in self._swapped if k in now}
+        if len(self._lost_near) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_near = {k for k in self._lost_near if k in self._lost}
         if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_side = {k for k in self._lost_side if k in self._lost}
         if len(self._lost_fit) > 2 * len(self._lost) + 16:  # bounded memory
@@ -4565,6 +4591,8 @@ class FeatureClusterer:
                     dct.pop(j, None)
             for dct in (self._lost_alt, self._lost_alt_dir, self._relinked, self._relinked_alt):
                 dct.pop(k, None)
+            self._lost_near.discard(k)
+            self._lost_near.discard(j)
             if k in self._lost_side:
                 self._lost_side.discard(k)
                 self._lost_side.add(j)
@@ -4691,7 +4719,17 @@ class FeatureClusterer:
         d = self._lost_dir.get(k)
         if fcam is None or d is None:
             return None
-        rate, el_med = self._lost_fit[k]
+        rate, el_med = self._lost_fit[k][:2]
+        if self.params.relink_predict_side_med_box:
+            # session 31 (h43): its fitted centre moved on, its median size over the fit's window (px at zoom 1)
+            az_c, w1, h1 = self._lost_fit[k][2:5]
+            u, w_, ok = fcam.azel_to_pixel(np.array([az_c + rate * min(t - tl, self.params.relink_predict_side_s)]),
+                                           np.array([el_med]))
+            u, w_ = np.atleast_1d(u), np.atleast_1d(w_)
+            if not (np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_))):
+                return None
+            bw, bh = w1 * self._zoom, h1 * self._zoom
+            return np.array([float(u[0]) - 0.5 * bw, float(w_[0]) - 0.5 * bh, bw, bh])
         az = np.asarray(d[0], np.float64) + rate * min(t - tl, self.params.relink_predict_side_s)
         el = np.asarray(d[1], np.float64)
         el = el + (el_med - float(np.mean(el)))
@@ -4717,7 +4755,9 @@ class FeatureClusterer:
         vt = float(ts @ ts)
         if vt <= 0:
             return None
-        return float(ts @ (az - az.mean())) / vt, float(np.median(a[:, 2]))
+        rate = float(ts @ (az - az.mean())) / vt
+        az_t = float(a[0, 1] + az.mean() + rate * (t - a[:, 0].mean()))  # the fitted line's direction at t
+        return rate, float(np.median(a[:, 2])), az_t, float(np.median(a[:, 3])), float(np.median(a[:, 4]))
 
     def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
         """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
