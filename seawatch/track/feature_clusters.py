@@ -3023,6 +3023,13 @@ class ClusterParams:
     ``relink_appearance_max`` outright.  The sailboat took the tug's identity and the tug the sailboat's.
     ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_side_app_near_margin`` (session 31, h43; False: off; with ``relink_side_app_near_px``): such a
+    pair's look distance still counts in ``relink_app_margin`` (only the look check's own limit is skipped):
+    another lost identity that looks much more like the new cluster keeps it.  On sim ``pan`` 237 at the pan's
+    return (31.7 s) the sailboat's new cluster lay 20 px from both the tug's expected box (lost at the side,
+    look distance 0.98) and the sailboat's own (0.37); without its distance the tug's pair escaped the
+    margin and won the tie (2 -> 4 switches); 226 the same at 32.3 s.
+
     ``relink_side_h_clear_px`` (session 30, h40; px, times the zoom; 0: off, a box counts as clear of the
     side edges 1 px from them): ``relink_side_h_ratio``'s heights of an identity are kept only from its
     boxes at least this far from the image's left and right edges.  A boat leaving at the side edge is
@@ -3349,6 +3356,7 @@ class ClusterParams:
     box_anchor_far_minority_ir: bool = True
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
+    relink_side_app_near_margin: bool = False
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
@@ -4233,6 +4241,12 @@ class FeatureClusterer:
                     if (p.relink_app_margin > 0 and p.relink_appearance and not near_side
                             and len(self.relink_log) > n_log):
                         app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
+                    if (near_side and p.relink_side_app_near_margin and p.relink_app_margin > 0 and p.relink_appearance):
+                        # session 31 (h43): its look refuses nothing, but another lost identity looking much more
+                        # like the new cluster still wins (relink_app_margin)
+                        self._looks_alike(k, i, cids, boxes, t, sig_new)
+                        if len(self.relink_log) > n_log:
+                            app_d[(i, k)] = float(self.relink_log[-1][4])
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
