@@ -3,7 +3,8 @@ h39).  A boat moving left at 40 px/s (11.5 deg/s through a fixed camera model of
 or near the left edge; ``relink_predict_side_min_rate`` drops a fit slower than its floor,
 ``relink_predict_side_near_px`` gives the second place to a boat lost near (not on) the edge, and
 ``relink_predict_side_med_box`` builds the second place from the fit window's median box rather than the
-last box (here grown tall in its last frame)."""
+last box (here grown tall in its last frame); ``relink_side_app_near_margin`` measures the look of h38's
+near-side pair for ``relink_app_margin``."""
 
 import numpy as np
 
@@ -107,3 +108,17 @@ def test_med_box_second_place_from_the_median_box():
     (h_small, h_tall), (m_small, m_tall) = hs
     assert h_tall > 40.0 > 2.0 * h_small, hs  # the corners' second place takes the last box's height
     assert m_tall == m_small < 12.0, hs  # the median box does not
+
+
+def test_side_app_near_margin_off_by_default_and_records_the_look():
+    # h38's harness: a hull cut by the left edge lost there, a bright new cluster born at its expected place
+    import test_sf_h38 as h38
+
+    assert ClusterParams().relink_side_app_near_margin is False
+    kw = {"relink_side_app_near_px": 30.0, "relink_appearance": True, "relink_app_margin": 0.2}
+    ident, got, c = h38.run(**kw)
+    assert got == ident  # h38's step: the look refuses nothing
+    assert not any(r[1] == ident for r in c.relink_log)  # and its look is not even measured
+    ident, got, c = h38.run(relink_side_app_near_margin=True, **kw)
+    assert got == ident  # the only candidate: the margin drops nothing, the look still refuses nothing
+    assert any(r[1] == ident for r in c.relink_log)  # its look measured, for relink_app_margin
