@@ -3052,6 +3052,13 @@ class ClusterParams:
     ``relink_appearance_max`` outright.  The sailboat took the tug's identity and the tug the sailboat's.
     ``relink_side_app_near_ir`` (False: visible frames only; True: infrared too).
 
+    ``relink_side_app_near_margin`` (session 31, h43; False: off; with ``relink_side_app_near_px``): such a
+    pair's look distance still counts in ``relink_app_margin`` (only the look check's own limit is skipped):
+    another lost identity that looks much more like the new cluster keeps it.  On sim ``pan`` 237 at the pan's
+    return (31.7 s) the sailboat's new cluster lay 20 px from both the tug's expected box (lost at the side,
+    look distance 0.98) and the sailboat's own (0.37); without its distance the tug's pair escaped the
+    margin and won the tie (2 -> 4 switches); 226 the same at 32.3 s.
+
     ``relink_side_h_clear_px`` (session 30, h40; px, times the zoom; 0: off, a box counts as clear of the
     side edges 1 px from them): ``relink_side_h_ratio``'s heights of an identity are kept only from its
     boxes at least this far from the image's left and right edges.  A boat leaving at the side edge is
@@ -3078,6 +3085,29 @@ class ClusterParams:
     time (the motorboat's last box had slid onto the sailboat's mast, 50 px above its hull).  Without a
     fit (fewer boxes clear of the edges, as a boat that hugged the edge), it is carried as without the step.  ``relink_predict_side_ir`` (False:
     visible frames only; True: infrared too).
+
+    ``relink_predict_side_min_rate`` (session 31, h43; deg/s; 0: off; with ``relink_predict_side_s``): the
+    second place only for a boat whose fitted azimuth rate is at least this fast in magnitude; a slower fit
+    counts as none (carried as without the step).  A slow boat's second place is its carried box moved a
+    few pixels, which only slips a far new cluster inside the gate: on sim ``pan`` 173 the tug's identity
+    (fitted 0.05 deg/s) had its carried box 395 px from the sailboat's new cluster (gate 388) and its
+    second place 375 px, and took it at the pan's return (31.1 s).  The motorboat turns about 1 deg/s
+    and the rib 1.5, the sailboat and the tug 0.1-0.2.
+
+    ``relink_predict_side_near_px`` (session 31, h43; px, times the zoom; 0: off; with
+    ``relink_predict_side_s``): an identity lost with its box within this of the image's left or right edge
+    (not on it) also gets the second place: a boat about to be pushed out by the zoom is often lost a few
+    frames before its box reaches the edge.  On sim ``pan`` 110 the motorboat's identity was lost at 19.1 s
+    with its box at x 38 (zoom 1.4), its cluster grown onto the sailboat's mast, and came back at 28.5 s
+    350 px from its carried box (gate 349).  Only for the second place (the other side-edge steps keep
+    their own test).
+
+    ``relink_predict_side_med_box`` (session 31, h43; False: off; with ``relink_predict_side_s``): the
+    second place is a box of the identity's median width and height over the fit's window (px over the
+    zoom, times the zoom now), centred on its fitted line's direction at the loss moved on by its rate, at
+    its median elevation, rather than its last box's corners moved on: a last box grown onto a
+    neighbour (the mast, 49 px high against a 10-12 px hull on ``pan`` 110) made the relink's height
+    check through the zoom (``relink_height_zoom_min``) refuse the boat's own 19 px cluster.
 
     ``relink_app_min_w_px`` (session 29, h33; px, times the zoom; 0: off; with ``relink_appearance``): an
     identity lost with a box narrower than this keeps no look (its appearance signature is unknown, so a
@@ -3403,6 +3433,7 @@ class ClusterParams:
     box_anchor_far_minority_ir: bool = True
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
+    relink_side_app_near_margin: bool = False
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     grow_core_in_ir: float = 0.0
@@ -3413,6 +3444,9 @@ class ClusterParams:
     relink_predict_side_s: float = 0.0
     relink_predict_side_ir: bool = False
     relink_predict_side_win_s: float = 2.0
+    relink_predict_side_min_rate: float = 0.0
+    relink_predict_side_near_px: float = 0.0
+    relink_predict_side_med_box: bool = False
     relink_jump_back_area: float = 1.5
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
@@ -3498,6 +3532,7 @@ class FeatureClusterer:
         self._lost_zoom: dict = {}  # lost identity -> the camera's zoom when it was lost (relink_area_same_zoom)
         self._relinked_now: dict = {}  # identities relinked this frame (hand_over_relinked)
         self._swapped: set = set()  # new identities given to clusters whose box jumped (split_follow_box)
+        self._lost_near: set = set()  # relink_predict_side_near_px: identities lost near (not at) the left or right edge
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
@@ -4233,7 +4268,7 @@ class FeatureClusterer:
                     # session 24 (H12): a slow boat's gate grows with its own last speed, not the default rate
                     rate = min(rate, max(p.relink_own_speed_floor, p.relink_own_speed_k * float(np.hypot(*vl))))
                 gate = p.relink_px + rate * (t - tl) * self._zoom
-                if side_pred_on and d > gate and k in self._lost_fit and k in self._lost_side:
+                if side_pred_on and d > gate and k in self._lost_fit and (k in self._lost_side or k in self._lost_near):
                     # relink_predict_side_s (session 30, h39): or where its own fitted azimuth rate took it
                     if k not in side_pred:
                         side_pred[k] = self._side_pred_box(k, tl, t, fcam)
@@ -4345,6 +4380,12 @@ class FeatureClusterer:
                     if (p.relink_app_margin > 0 and p.relink_appearance and not near_side
                             and len(self.relink_log) > n_log):
                         app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
+                    if (near_side and p.relink_side_app_near_margin and p.relink_app_margin > 0 and p.relink_appearance):
+                        # session 31 (h43): its look refuses nothing, but another lost identity looking much more
+                        # like the new cluster still wins (relink_app_margin)
+                        self._looks_alike(k, i, cids, boxes, t, sig_new)
+                        if len(self.relink_log) > n_log:
+                            app_d[(i, k)] = float(self.relink_log[-1][4])
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
                     # relink_iou_tie: among pairs at one gap (overlapping: 0), the lost box overlapping most first
@@ -4536,6 +4577,12 @@ class FeatureClusterer:
                         self._lost_side.add(k)
                     else:
                         self._lost_side.discard(k)
+                    m_near = p.relink_predict_side_near_px * self._zoom
+                    if (side_pred_on and m_near > 0 and w_img is not None and k not in self._lost_side
+                            and (b[0] <= m_near or b[0] + b[2] >= w_img - m_near)):
+                        self._lost_near.add(k)  # session 31 (h43): lost near the side edge, about to leave
+                    else:
+                        self._lost_near.discard(k)
                 if p.relink_side_row_margin > 0:  # session 29 (h33): its row at the loss, not the carried one's
                     self._lost_row[k] = self._row_key(self._lost[k][1])
                 if (p.relink_area_same_zoom or p.relink_dy_same_zoom or p.relink_view_px > 0
@@ -4559,11 +4606,13 @@ class FeatureClusterer:
                         a2, e2 = prev_cam.pixel_to_azel(np.array([c[0], c[0] + v[0]]), np.array([c[1], c[1] + v[1]]))
                         daz = float((a2[1] - a2[0] + 180.0) % 360.0 - 180.0)
                         del_ = float(e2[1] - e2[0])
-                    if side_pred_on and k in self._lost_side:
+                    if side_pred_on and (k in self._lost_side or k in self._lost_near):
                         # relink_predict_side_s (session 30, h39): the rates fitted to its centre's directions over
                         # the last relink_predict_side_win_s (boxes clear of the edges), not its last velocity
                         # (a box cut by the edge, or a cluster that slid onto a neighbour, moves anyhow)
                         r_ = self._dir_rate(k, t, dt)
+                        if r_ is not None and abs(r_[0]) < p.relink_predict_side_min_rate:
+                            r_ = None  # session 31 (h43): a slow boat's second place is its carried box, slipped
                         if r_ is not None:
                             self._lost_fit[k] = r_
                         else:
@@ -4635,7 +4684,7 @@ class FeatureClusterer:
                 az_, el_ = fcam.pixel_to_azel(cb[:, 0] + 0.5 * cb[:, 2], cb[:, 1] + 0.5 * cb[:, 3])
                 for k, a_, e_ in zip(ks, np.atleast_1d(az_).tolist(), np.atleast_1d(el_).tolist()):
                     dq = self._dir_hist.setdefault(k, collections.deque())
-                    dq.append((t, a_, e_))
+                    dq.append((t, a_, e_, float(now[k][2]) / max(self._zoom, 1e-6), float(now[k][3]) / max(self._zoom, 1e-6)))
                     while dq and dq[0][0] < t - p.relink_predict_side_win_s - 1e-9:
                         dq.popleft()
             if len(self._dir_hist) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
@@ -4657,6 +4706,8 @@ class FeatureClusterer:
             self._lost_zoom = {k: v for k, v in self._lost_zoom.items() if k in self._lost}
         if len(self._swapped) > 2 * len(now) + 16:  # bounded memory
             self._swapped = {k for k in self._swapped if k in now}
+        if len(self._lost_near) > 2 * len(self._lost) + 16:  # bounded memory
+            self._lost_near = {k for k in self._lost_near if k in self._lost}
         if len(self._lost_side) > 2 * len(self._lost) + 16:  # bounded memory
             self._lost_side = {k for k in self._lost_side if k in self._lost}
         if len(self._lost_fit) > 2 * len(self._lost) + 16:  # bounded memory
@@ -4716,6 +4767,8 @@ class FeatureClusterer:
                     dct.pop(j, None)
             for dct in (self._lost_alt, self._lost_alt_dir, self._relinked, self._relinked_alt):
                 dct.pop(k, None)
+            self._lost_near.discard(k)
+            self._lost_near.discard(j)
             if k in self._lost_side:
                 self._lost_side.discard(k)
                 self._lost_side.add(j)
@@ -4842,7 +4895,17 @@ class FeatureClusterer:
         d = self._lost_dir.get(k)
         if fcam is None or d is None:
             return None
-        rate, el_med = self._lost_fit[k]
+        rate, el_med = self._lost_fit[k][:2]
+        if self.params.relink_predict_side_med_box:
+            # session 31 (h43): its fitted centre moved on, its median size over the fit's window (px at zoom 1)
+            az_c, w1, h1 = self._lost_fit[k][2:5]
+            u, w_, ok = fcam.azel_to_pixel(np.array([az_c + rate * min(t - tl, self.params.relink_predict_side_s)]),
+                                           np.array([el_med]))
+            u, w_ = np.atleast_1d(u), np.atleast_1d(w_)
+            if not (np.all(ok) and np.all(np.isfinite(u)) and np.all(np.isfinite(w_))):
+                return None
+            bw, bh = w1 * self._zoom, h1 * self._zoom
+            return np.array([float(u[0]) - 0.5 * bw, float(w_[0]) - 0.5 * bh, bw, bh])
         az = np.asarray(d[0], np.float64) + rate * min(t - tl, self.params.relink_predict_side_s)
         el = np.asarray(d[1], np.float64)
         el = el + (el_med - float(np.mean(el)))
@@ -4868,7 +4931,9 @@ class FeatureClusterer:
         vt = float(ts @ ts)
         if vt <= 0:
             return None
-        return float(ts @ (az - az.mean())) / vt, float(np.median(a[:, 2]))
+        rate = float(ts @ (az - az.mean())) / vt
+        az_t = float(a[0, 1] + az.mean() + rate * (t - a[:, 0].mean()))  # the fitted line's direction at t
+        return rate, float(np.median(a[:, 2])), az_t, float(np.median(a[:, 3])), float(np.median(a[:, 4]))
 
     def _dv_ok(self, k, v_new, cam_new, max_dv) -> bool:
         """``relink_dv_px_s`` / ``hand_over_dv_px_s``: whether a cluster of own velocity ``v_new``
