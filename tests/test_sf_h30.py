@@ -62,7 +62,7 @@ def test_a_narrow_box_inside_the_image_is_still_reported():
 # relink_app_margin: two boats lost together; a new cluster is born nearer the one it does not look like
 
 
-def _two_lost(monkeypatch, dc, **kw):
+def _two_lost(monkeypatch, dc, full_log=False, **kw):
     """Boats A (features at x 85-93) and B (x 120-128) reported for 6 frames, both lost in frame 6, and a new
     cluster born in frame 7 at x 108-116: nearer B's box (gap ~2 px) than A's (~11 px), both in the gate.
     ``dc``: the appearance distance the relink's look check gives each lost identity (A, B)."""
@@ -73,6 +73,9 @@ def _two_lost(monkeypatch, dc, **kw):
 
     monkeypatch.setattr(FeatureClusterer, "_looks_alike", looks)
     c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, **kw}))
+    if full_log:  # a long live run: the bounded look log is already full
+        old = (0.0, 0, 0, np.zeros(4), 0.0, 0.0, False)
+        c.relink_log.extend([old] * c.relink_log.maxlen)
     tr = None
     for k in range(6):
         _, tr = c.update(snap([[85, 63], [93, 66], [120, 63], [128, 66]], [[5, 0], [5, 0], [-5, 0], [-5, 0]],
@@ -97,4 +100,12 @@ def test_relink_app_margin_the_better_looking_lost_identity_is_taken(monkeypatch
     ids, born = _two_lost(monkeypatch, (0.1, 0.9), relink_app_margin=0.5)
     assert born == [ids["A"]]
     ids, born = _two_lost(monkeypatch, (0.5, 0.9), relink_app_margin=0.5)  # within the margin: the nearer
+    assert born == [ids["B"]]
+
+
+def test_relink_app_margin_still_acts_once_the_look_log_is_full(monkeypatch):
+    # the log keeps the last 1000 looks; the margin must not stop acting when its length stops growing
+    ids, born = _two_lost(monkeypatch, (0.1, 0.9), full_log=True, relink_app_margin=0.5)
+    assert born == [ids["A"]]
+    ids, born = _two_lost(monkeypatch, (0.5, 0.9), full_log=True, relink_app_margin=0.5)
     assert born == [ids["B"]]

@@ -4370,7 +4370,9 @@ class FeatureClusterer:
                 if d <= gate and far_new is not None and bool(far_new[i]) != bool(self._far_side(lb[None])[0]):
                     continue  # session 26 round 2 (H25, far_id_px): not across the far strip's line
                 if d <= gate:
-                    n_log = len(self.relink_log)
+                    # whether _looks_alike logged a look for this pair: by the last entry's identity, not the
+                    # log's length (a full deque's length stops growing; session 31, h43 found it)
+                    last_look = self.relink_log[-1] if self.relink_log else None
                     # relink_side_app_near_px (session 30, h38): lost at the side, expected right here: its
                     # look (from a box cut by the edge) refuses nothing
                     near_side = (side_app_on and k in self._lost_side
@@ -4378,13 +4380,13 @@ class FeatureClusterer:
                     if p.relink_appearance and not near_side and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
                     if (p.relink_app_margin > 0 and p.relink_appearance and not near_side
-                            and len(self.relink_log) > n_log):
+                            and self._looked(last_look)):
                         app_d[(i, k)] = float(self.relink_log[-1][4])  # relink_app_margin: its look's distance
                     if (near_side and p.relink_side_app_near_margin and p.relink_app_margin > 0 and p.relink_appearance):
                         # session 31 (h43): its look refuses nothing, but another lost identity looking much more
                         # like the new cluster still wins (relink_app_margin)
                         self._looks_alike(k, i, cids, boxes, t, sig_new)
-                        if len(self.relink_log) > n_log:
+                        if self._looked(last_look):
                             app_d[(i, k)] = float(self.relink_log[-1][4])
                     if p.relink_dv_px_s > 0 and not self._dv_ok(k, own_k[i], cam_s[i], p.relink_dv_px_s):
                         continue  # session 20: a boat keeps its own velocity through a loss
@@ -4968,6 +4970,11 @@ class FeatureClusterer:
         refused = dc + self.params.relink_appearance_tpl * dt > self.params.relink_appearance_max
         self.relink_log.append((t, int(k), int(cids[i]), boxes[i].copy(), dc, dt, refused))
         return not refused
+
+    def _looked(self, last_look) -> bool:
+        """Whether ``_looks_alike`` appended a look to ``relink_log`` since its last entry was ``last_look``
+        (compared by identity: the log is a bounded deque, so its length stops growing once full)."""
+        return bool(self.relink_log) and self.relink_log[-1] is not last_look
 
     def _far_side(self, boxes) -> np.ndarray | None:
         """``params.far_id_px``: whether each box (rows x, y, w, h) lies in the far strip (its bottom
