@@ -14,9 +14,11 @@ CORE = np.array([447.0, 264.0, 12.0, 14.0])  # ir 19, 36.0 s: the small boat's m
 HULL = np.array([383.0, 249.0, 73.0, 16.0])  # the box grown onto the ferry's hull
 
 
-def test_off_by_default():
+def test_defaults_since_rule_n():
+    # session 31's rule N turned the growth check, its fallback and the joined report's cover rule on
     p = ClusterParams()
-    assert p.grow_core_in_ir == 0.0 and p.merge_id_apart_ir is False
+    assert p.grow_core_in_ir == 0.1 and p.grow_core_hint_ir == 0.6 and p.merge_id_now_any_ir is True
+    assert p.merge_id_apart_ir is False
 
 
 def test_inside_frac_many_matches_inside_frac():
@@ -41,7 +43,7 @@ def _run(monkeypatch, frac, ir=True, grown_off=True):
         return b, np.full(len(b), 50.0), np.ones(len(b), bool)
 
     monkeypatch.setattr(fc, "grow_boxes", fake_grow)
-    cl = FeatureClusterer(ClusterParams(grow_core_in_ir=frac, confirm_s=0.0, relink_s=0.0))
+    cl = FeatureClusterer(ClusterParams(grow_core_in_ir=frac, grow_core_hint_ir=0.0, confirm_s=0.0, relink_s=0.0))
     img = np.full((160, 240), 120, np.uint8)
     xy0 = np.array([[100.0, 60.0], [104.0, 62.0], [108.0, 60.0], [112.0, 61.0]])
     out = None
@@ -76,7 +78,7 @@ def test_merge_id_apart_ir_on_infrared_only(monkeypatch):
     monkeypatch.setattr(fc, "_merge_overlapping", spy)
     for ir, on, want in ((True, True, True), (False, True, False), (True, False, False)):
         seen.clear()
-        cl = FeatureClusterer(ClusterParams(merge_id_apart_ir=on, confirm_s=0.0, relink_s=0.0))
+        cl = FeatureClusterer(ClusterParams(merge_id_apart_ir=on, grow_core_in_ir=0.0, confirm_s=0.0, relink_s=0.0))
         xy = np.array([[100.0, 60.0], [104.0, 62.0], [108.0, 60.0], [150.0, 61.0], [154.0, 60.0], [158.0, 62.0]])
         v = [[3.0, 0.0]] * 3 + [[-3.0, 0.0]] * 3
         for fi in range(4):
@@ -99,7 +101,6 @@ def _merge13(any_, counts=COUNT13, prev=PREV13):
 
 
 def test_merge_id_now_any_gives_the_joined_report_to_the_member_covering_it():
-    assert ClusterParams().merge_id_now_any_ir is False
     assert _merge13(False) == [5]  # by age
     assert _merge13(True) == [26]  # the ferry's own box covers the joined box (IoU 0.56)
     # the id_dv rule's choice (a member with twice the features) is not undone
@@ -135,7 +136,6 @@ def _run_hint(monkeypatch, hint):
 
 
 def test_grow_core_hint_falls_back_on_the_last_grown_box(monkeypatch):
-    assert ClusterParams().grow_core_hint_ir == 0.0
     plain = _run_hint(monkeypatch, False)
     hint = _run_hint(monkeypatch, True)
     good = hint[2]

@@ -1,6 +1,7 @@
 """Session 31 (issue #8, helper h42): ``relink_shape_block_s_ir`` and ``relink_shape_min_n_ir``, the relink's
 shape checks and a small boat's box widened over a neighbour's feature (sim ``ir`` 53 at 39.4 s, ``ir`` 43 at
-25.0 s: the boxes below).  Both off by default, both on infrared frames only."""
+25.0 s: the boxes below).  Both on infrared frames only; off until session 31's rule N made them the defaults
+(``relink_shape_block_s_ir`` 1 s, ``relink_shape_min_n_ir`` 5), so the cases below start from them off."""
 
 import numpy as np
 
@@ -11,6 +12,7 @@ SAIL8 = np.array([288.0, 245.0, 11.0, 14.0])  # ir 53: the sailboat's identity 8
 CARGO14 = np.array([366.0, 241.0, 52.0, 10.0])  # ir 53: the cargo ship's identity 14, lost at 20.6 s
 WIDE = np.array([[287.0, 248.0, 57.0, 11.0]])  # ir 53: new cluster 317 at 39.4 s, over the sailboat and the stern
 NARROW = np.array([[290.0, 243.0, 8.0, 16.0]])  # ir 53: cluster 317 at 40.2 s, the sailboat alone
+OFF = {"relink_shape_block_s_ir": 0.0, "relink_shape_min_n_ir": 0}  # the steps off, as before rule N
 
 
 def _snap(t):
@@ -22,15 +24,20 @@ def _snap(t):
 
 
 def _clusterer(ir=True, **kw):
-    c = FeatureClusterer(ClusterParams(**kw))
+    c = FeatureClusterer(ClusterParams(**{**OFF, **kw}))
     c._ir = ir
     c._lost = {8: (38.7, SAIL8.copy(), np.zeros(2)), 14: (20.6, CARGO14.copy(), np.zeros(2))}
     return c
 
 
-def test_off_by_default():
+def test_on_by_default_since_rule_n():
     p = ClusterParams()
-    assert p.relink_shape_block_s_ir == 0.0 and p.relink_shape_min_n_ir == 0
+    assert p.relink_shape_block_s_ir == 1.0 and p.relink_shape_min_n_ir == 5 and p.relink_shape_min_grown_ir == 2.0
+    # the defaults give ir 53's case the answer of the step on
+    c = FeatureClusterer(ClusterParams())
+    c._ir = True
+    c._lost = {8: (38.7, SAIL8.copy(), np.zeros(2)), 14: (20.6, CARGO14.copy(), np.zeros(2))}
+    assert c._relink(_snap(39.4), np.array([317]), WIDE.copy()).tolist() == [317]
 
 
 def test_block_keeps_the_far_identity_and_gives_the_covered_one_later():
@@ -64,7 +71,7 @@ def test_block_waits_only_its_time():
 def _shape_min(ir=True, last=None, **kw):
     """ir 43: the sailboat's boxes 8 x 10 px, widened to 55 x 11 px for its last 3 frames, then lost; 13 s later its
     own new 8 x 10 px cluster beside it."""
-    c = FeatureClusterer(ClusterParams(**kw))
+    c = FeatureClusterer(ClusterParams(**{**OFF, **kw}))
     c._ir = ir
     boxes = [[314.0, 248.0, 8.0, 11.0], [314.0, 249.0, 8.0, 10.0], [315.0, 248.0, 55.0, 11.0],
              [315.0, 248.0, 54.0, 10.0], [315.0, 248.0, 54.0, 10.0]]
@@ -95,7 +102,7 @@ def test_shape_min_only_for_a_box_grown_before_the_loss():
 
 def _any(**kw):
     """ir 42: the cargo ship's boxes 73 x 30 px, then a 12 x 23 px sliver at its loss; its new 53 x 13 px cluster."""
-    c = FeatureClusterer(ClusterParams(**kw))
+    c = FeatureClusterer(ClusterParams(**{**OFF, **kw}))
     c._ir = True
     t = 5.0
     for b in ([311.0, 229.0, 73.0, 30.0],) * 4 + ([371.0, 229.0, 12.0, 23.0],):

@@ -3201,6 +3201,9 @@ class ClusterParams:
     frames only) and ``merge_id_now_iou_ir`` 0.5. Session 30 (rule L, on never-run ``pan`` 175-206 and ``ir``
     47-54) turned on, all on infrared frames only, ``box_anchor_far_h_ir`` 1.0 with ``box_anchor_far_minority_ir``,
     ``relink_jump_back_iou_ir`` 0.4 with ``relink_jump_back_own_area`` 2, and ``relink_area_med_n_ir`` 5.
+    Session 31 (rule N, on never-run ``pan`` 239-270 and ``ir`` 55-70) turned on, all on infrared frames only,
+    ``grow_core_in_ir`` 0.1 with ``grow_core_hint_ir`` 0.6, ``merge_id_now_any_ir``, and
+    ``relink_shape_block_s_ir`` 1 with ``relink_shape_min_n_ir`` 5 (``relink_shape_min_grown_ir`` 2).
     Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
@@ -3436,9 +3439,9 @@ class ClusterParams:
     relink_side_app_near_margin: bool = False
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
-    grow_core_in_ir: float = 0.0
-    grow_core_hint_ir: float = 0.0
-    merge_id_now_any_ir: bool = False
+    grow_core_in_ir: float = 0.1
+    grow_core_hint_ir: float = 0.6
+    merge_id_now_any_ir: bool = True
     merge_id_apart_ir: bool = False
     relink_jump_back_iou_ir: float = 0.4
     relink_predict_side_s: float = 0.0
@@ -3451,8 +3454,8 @@ class ClusterParams:
     relink_jump_back_s: float = 3.0
     relink_jump_back_own_area: float = 2.0
     relink_area_med_n_ir: int = 5
-    relink_shape_block_s_ir: float = 0.0
-    relink_shape_min_n_ir: int = 0
+    relink_shape_block_s_ir: float = 1.0
+    relink_shape_min_n_ir: int = 5
     relink_shape_any_ir: bool = False
     relink_shape_min_grown_ir: float = 2.0
     relink_shape_any_area: float = 4.0
