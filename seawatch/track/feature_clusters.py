@@ -3028,6 +3028,15 @@ class ClusterParams:
     box members inside that box (a few features of another object; where most lie outside, the last box was a
     part of the boat, and the box may grow back: sim ``ir`` 13 at 35.8 s, the ferry's box held at 6 x 7 px).
 
+    Session 31 (h44, the sailboat's box widened over the cargo ship's stern on infrared): ``box_anchor_near_h_ir``
+    (0: off; infrared frames only; in heights of the anchor box, as ``box_anchor_far_h_ir``, and with it): the box
+    members lying inside the anchor box or at most this many of its heights outside it count towards
+    ``box_anchor_far_h_ir``'s two members (and ``box_anchor_far_minority_ir``'s majority). A small boat's grown box
+    is tighter than its features' span, so often only one member lies inside it, and one feature of another boat
+    held in the same graph cluster then widens the box over both (sim ``ir`` 20 at 11.1 s: members at x 308, 312,
+    319 beside the 8 x 10 px box at x 310, only 312 inside; a cargo ship's stern feature at x 361 drew the box to
+    60 x 12 px, the next frame's anchor took it, and the sailboat's identity was lost at that wide box 3 s later).
+
     ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
     with two or more lost identities in its relink gate that were lost at the image's left or right edge
     takes none whose row under the horizon at the loss (its box's bottom less the horizon's row at its
@@ -3434,6 +3443,7 @@ class ClusterParams:
     relink_app_min_w_ir: bool = False
     box_anchor_far_h_ir: float = 1.0
     box_anchor_far_minority_ir: bool = True
+    box_anchor_near_h_ir: float = 0.0
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -3963,7 +3973,13 @@ class FeatureClusterer:
             far = inb & ~anchor & (gh > far_h)
         if not far.any():
             return inb
-        n_in = np.bincount(k[inb & anchor], minlength=n)
+        near_h = self.params.box_anchor_near_h_ir
+        if near_h > 0:  # session 31 (h44): members just outside the anchor box count as inside it
+            with np.errstate(invalid="ignore"):
+                near = inb & (anchor | (gh <= min(near_h, far_h)))
+            n_in = np.bincount(k[near], minlength=n)
+        else:
+            n_in = np.bincount(k[inb & anchor], minlength=n)
         ok = n_in >= 2
         if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
             ok &= np.bincount(k[far], minlength=n) < n_in
