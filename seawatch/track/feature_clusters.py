@@ -4420,12 +4420,18 @@ class FeatureClusterer:
                         # session 31 (h45): not for a new cluster beside a cluster already reported (a part of
                         # a boat in view, as the sailboat's hull beside its relinked mast)
                         if i not in beside_old:
-                            if old_boxes is None:  # the not-new clusters' boxes and last frame's reported boxes
-                                nw = set(new)
-                                ob = [boxes[j] for j in range(len(cids)) if j not in nw]
-                                ob += [carry(np.asarray(b_, np.float64)) for b_ in self._prev_boxes.values()]
-                                old_boxes = np.asarray(ob, np.float64).reshape(-1, 4)
-                            beside_old[i] = self._beside_old(boxes[i], old_boxes,
+                            if old_boxes is None:  # last frame's reported boxes
+                                old_boxes = np.asarray([carry(np.asarray(b_, np.float64))
+                                                        for b_ in self._prev_boxes.values()], np.float64).reshape(-1, 4)
+                            nw = set(new)
+                            ob = np.asarray([boxes[j] for j in range(len(cids)) if j not in nw and j != i],
+                                            np.float64).reshape(-1, 4)  # the other clusters not new this frame
+                            own = self._prev_boxes.get(int(rep[i])) if int(rep[i]) == int(cids[i]) else None
+                            pb = old_boxes
+                            if own is not None:  # not its own last box (a young cluster retried)
+                                keep = ~np.all(np.isclose(pb, carry(np.asarray(own, np.float64))), axis=1)
+                                pb = pb[keep]
+                            beside_old[i] = self._beside_old(boxes[i], np.vstack([ob, pb]),
                                                              p.relink_side_app_near_alone_px * self._zoom)
                         near_side = not beside_old[i]
                     if p.relink_appearance and not near_side and not self._looks_alike(k, i, cids, boxes, t, sig_new):
