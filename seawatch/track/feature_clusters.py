@@ -3068,6 +3068,14 @@ class ClusterParams:
     look distance 0.98) and the sailboat's own (0.37); without its distance the tug's pair escaped the
     margin and won the tie (2 -> 4 switches); 226 the same at 32.3 s.
 
+    ``relink_side_app_near_alone_px`` (session 31, h45; px, times the zoom; 0: off; with
+    ``relink_side_app_near_px``): a new cluster whose box lies within this gap (box edge to box edge) of a
+    cluster that is not new this frame, or of a box reported in the last frame (carried by the camera), gets no
+    such exemption (the look checks as without the step): it is likely a part of a boat already in view.  On sim ``pan`` 179 at the pan's return the sailboat's mast came
+    back as a new cluster that took its own identity (31.5 s), and its hull as a second new cluster 2 px
+    beside the mast's box of 0.1 s before (that cluster gone), 8 px from the tug's expected box (lost at the side, look distance 1.74): with the
+    exemption the hull took the tug's identity (5 -> 7 switches).
+
     ``relink_side_h_clear_px`` (session 30, h40; px, times the zoom; 0: off, a box counts as clear of the
     side edges 1 px from them): ``relink_side_h_ratio``'s heights of an identity are kept only from its
     boxes at least this far from the image's left and right edges.  A boat leaving at the side edge is
@@ -3079,6 +3087,13 @@ class ClusterParams:
     sailboat's last heights became 69-75 px (grown on the motorboat) and its 25 px new cluster was refused;
     a longer median (``relink_side_h_n`` 15) keeps both.  ``relink_side_h_clear_ir`` (False: visible frames
     only; True: infrared too).
+
+    ``relink_side_h_clear_either`` (session 31, h45; False: off; with ``relink_side_h_clear_px``): the height
+    check refuses a pair only when the heights clear by that margin refuse it and so do the heights 1 px clear
+    of the side edges (as without the margin): the margin only adds pairs.  On sim ``pan`` 193 (31.4 s) the
+    sailboat's heights clear by 15 px were 74-77 px (grown before it left) against its 30 px new cluster 2 px
+    from its expected box; its heights nearer the edge passed, and without them it took the tug's identity
+    (4 -> 6 switches).
 
     ``relink_predict_side_s`` (session 30, h39; seconds; 0: off): an identity lost at the image's left or
     right edge may also be relinked where its own motion took it (a second place for the relink gap, as
@@ -3447,8 +3462,10 @@ class ClusterParams:
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
+    relink_side_app_near_alone_px: float = 0.0
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
+    relink_side_h_clear_either: bool = False
     grow_core_in_ir: float = 0.1
     grow_core_hint_ir: float = 0.6
     merge_id_now_any_ir: bool = True
@@ -3549,6 +3566,7 @@ class FeatureClusterer:
         self._lost_side: set = set()  # identities lost with their last box at the image's left or right edge (relink_dy_side)
         self._born: dict[int, float] = {}  # cluster identity -> time first seen (relink_young_s)
         self._whole_h: dict = {}  # reported identity -> [(height, zoom)] of its last boxes clear of the side edges (relink_side_h_ratio)
+        self._whole_h1: dict = {}  # relink_side_h_clear_either: the same, boxes 1 px clear of the side edges
         self._returned: dict = {}  # lost identity back through the label memory -> the time it came back (relink_alt_memory)
         self._lost_a0: dict = {}  # lost identity -> (its box's area at the loss, zoom then) (relink_area_at_loss)
         self._lost_fit: dict = {}  # relink_predict_side_s: lost identity -> (azimuth rate deg/s, median elevation deg) at the loss
@@ -4133,6 +4151,27 @@ class FeatureClusterer:
             out.update(frozenset((a, b)) for k, a in enumerate(inside) for b in inside[k + 1:])
         return out
 
+    def _side_h_ok(self, hw, hb: float) -> bool:
+        """``relink_side_h_ratio`` (and ``relink_side_h_up``): whether a new cluster ``hb`` px high passes
+        against the heights ``hw`` ([(height, zoom)]) of a lost identity."""
+        p = self.params
+        he = float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw]))
+        if max(hb, he) > p.relink_side_h_ratio * max(min(hb, he), 1.0):
+            return False
+        if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
+            return False  # session 24 (H9): a new cluster is a part of its boat, rarely more
+        return True
+
+    @staticmethod
+    def _beside_old(bi: np.ndarray, o: np.ndarray, px: float) -> bool:
+        """``relink_side_app_near_alone_px``: whether box ``bi`` lies within ``px`` (box edge to box edge) of
+        one of the boxes ``o`` (n x 4)."""
+        if len(o) == 0:
+            return False
+        bi = np.asarray(bi, np.float64)
+        g = np.maximum(np.abs((bi[:2] + 0.5 * bi[2:]) - (o[:, :2] + 0.5 * o[:, 2:])) - 0.5 * (bi[2:] + o[:, 2:]), 0.0)
+        return bool(np.any(np.hypot(g[:, 0], g[:, 1]) <= px))
+
     def _relink(self, snap: FeatureSnapshot, cids: np.ndarray, boxes: np.ndarray,
                 vel: np.ndarray | None = None) -> np.ndarray:
         """Reported identities of this frame's clusters: a cluster born within ``relink_s`` of
@@ -4260,6 +4299,8 @@ class FeatureClusterer:
         side_row_on = p.relink_side_row_margin > 0 and (p.relink_side_row_ir or not self._ir)
         side_app_on = p.relink_side_app_near_px > 0 and (p.relink_side_app_near_ir or not self._ir)
         side_pred = {}  # relink_predict_side_s: lost identity -> its predicted box this frame (None: none)
+        beside_old = {}  # relink_side_app_near_alone_px: new cluster -> whether it lies beside a known cluster
+        old_boxes = None  # relink_side_app_near_alone_px: the boxes of the boats in view
         block_on = p.relink_shape_block_s_ir > 0 and self._ir
         shape_min_on = p.relink_shape_min_n_ir > 0 and self._ir
         blocked = set()  # relink_shape_block_s_ir: new clusters that cover a just-lost identity refused by shape
@@ -4318,13 +4359,11 @@ class FeatureClusterer:
                         continue
                 if p.relink_side_h_ratio > 0 and k in self._lost_side and self._whole_h.get(k):
                     # session 23 (H4): a boat left at the side edge keeps its size, from its boxes clear of the edge
-                    hw = self._whole_h[k]
-                    he = float(np.median([hh_ * self._zoom / max(z_, 1e-6) for hh_, z_ in hw]))
                     hb = float(boxes[i][3])
-                    if max(hb, he) > p.relink_side_h_ratio * max(min(hb, he), 1.0):
-                        continue
-                    if p.relink_side_h_up > 0 and hb > p.relink_side_h_up * max(he, 1.0):
-                        continue  # session 24 (H9): a new cluster is a part of its boat, rarely more
+                    if not self._side_h_ok(self._whole_h[k], hb):
+                        # relink_side_h_clear_either (session 31, h45): or from its boxes 1 px clear of the edge
+                        if not (k in self._whole_h1 and self._whole_h1[k] and self._side_h_ok(self._whole_h1[k], hb)):
+                            continue
                 sm = self._lost_small.get(k) if shape_min_on else None
                 if sm is not None:  # relink_shape_min_n_ir: its smallest last box, carried by the zoom change
                     sm = np.asarray(sm[0], np.float64) * np.array([1.0, 1.0, self._zoom / max(sm[1], 1e-6),
@@ -4396,6 +4435,24 @@ class FeatureClusterer:
                     # look (from a box cut by the edge) refuses nothing
                     near_side = (side_app_on and k in self._lost_side
                                  and d <= p.relink_side_app_near_px * self._zoom)
+                    if near_side and p.relink_side_app_near_alone_px > 0:
+                        # session 31 (h45): not for a new cluster beside a cluster already reported (a part of
+                        # a boat in view, as the sailboat's hull beside its relinked mast)
+                        if i not in beside_old:
+                            if old_boxes is None:  # last frame's reported boxes
+                                old_boxes = np.asarray([carry(np.asarray(b_, np.float64))
+                                                        for b_ in self._prev_boxes.values()], np.float64).reshape(-1, 4)
+                            nw = set(new)
+                            ob = np.asarray([boxes[j] for j in range(len(cids)) if j not in nw and j != i],
+                                            np.float64).reshape(-1, 4)  # the other clusters not new this frame
+                            own = self._prev_boxes.get(int(rep[i])) if int(rep[i]) == int(cids[i]) else None
+                            pb = old_boxes
+                            if own is not None:  # not its own last box (a young cluster retried)
+                                keep = ~np.all(np.isclose(pb, carry(np.asarray(own, np.float64))), axis=1)
+                                pb = pb[keep]
+                            beside_old[i] = self._beside_old(boxes[i], np.vstack([ob, pb]),
+                                                             p.relink_side_app_near_alone_px * self._zoom)
+                        near_side = not beside_old[i]
                     if p.relink_appearance and not near_side and not self._looks_alike(k, i, cids, boxes, t, sig_new):
                         continue
                     if (p.relink_app_margin > 0 and p.relink_appearance and not near_side
@@ -4668,14 +4725,23 @@ class FeatureClusterer:
             m_side = 1.0
             if p.relink_side_h_clear_px > 0 and (p.relink_side_h_clear_ir or not self._ir):
                 m_side = max(1.0, p.relink_side_h_clear_px * self._zoom)  # session 30 (h40): clear by a margin
+            either = m_side > 1.0 and p.relink_side_h_clear_either
             for k, b in now.items():
                 if b[0] > m_side and b[0] + b[2] < w_img - m_side and b[3] > 0:
                     hw = self._whole_h.setdefault(k, [])
                     hw.append((float(b[3]), float(self._zoom)))
                     if len(hw) > max(int(p.relink_side_h_n), 1):
                         del hw[0]
+                if either and b[0] > 1.0 and b[0] + b[2] < w_img - 1.0 and b[3] > 0:
+                    # relink_side_h_clear_either (session 31, h45): the heights 1 px clear too
+                    hw = self._whole_h1.setdefault(k, [])
+                    hw.append((float(b[3]), float(self._zoom)))
+                    if len(hw) > max(int(p.relink_side_h_n), 1):
+                        del hw[0]
             if len(self._whole_h) > 2 * (len(now) + len(self._lost)) + 16:  # bounded memory
                 self._whole_h = {k: v for k, v in self._whole_h.items() if k in now or k in self._lost}
+            if len(self._whole_h1) > 2 * (len(now) + len(self._lost)) + 16:
+                self._whole_h1 = {k: v for k, v in self._whole_h1.items() if k in now or k in self._lost}
         if p.relink_shape_min_n_ir > 0 and self._ir:
             # relink_shape_min_n_ir: each reported identity's last boxes
             for k, b in now.items():
