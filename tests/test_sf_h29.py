@@ -23,7 +23,9 @@ OFF = dict(relink_alt_s=0.0, relink_appearance=False, confirm_s=0.4, relink_s=10
            relink_young_after_s=0.0, relink_min_area=0.0, relink_height_zoom_min=0.0, relink_iou_tie=True,
            relink_side_h_ratio=0.0,
            # on by default since session 28; named off here: the tests turn on the step they measure
-           lost_dup_iou=0.0, relink_area_at_loss=False, relink_retry_s=0.0, relink_hold_s=0.0, relink_app_margin=0.0)
+           lost_dup_iou=0.0, relink_area_at_loss=False, relink_retry_s=0.0, relink_hold_s=0.0, relink_app_margin=0.0,
+           # session 31's relink shape steps (infrared; on since rules N and O)
+           relink_shape_block_s_ir=0.0, relink_shape_min_n_ir=0)
 
 
 def test_defaults_since_session_28():

@@ -49,10 +49,12 @@ def test_area_at_loss_switch(ir):
     got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=True)
     assert got == a_id
     # session 30's relink_area_med_n_ir (on infrared by default) also compares with the boxes before the
-    # grown one; set to 0 here so that only relink_area_at_loss's switch is tested
-    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=False, relink_area_med_n_ir=0)
+    # grown one, and session 31's relink_shape_min_n_ir (40 since rule O) with the smallest of them; both set
+    # to 0 here so that only relink_area_at_loss's switch is tested
+    off = {"relink_area_med_n_ir": 0, "relink_shape_min_n_ir": 0}
+    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_at_loss_ir=False, **off)
     assert got != a_id
-    got, a_id = h29._area_run(relink_area_at_loss=True, relink_area_med_n_ir=0)  # off on infrared by default
+    got, a_id = h29._area_run(relink_area_at_loss=True, **off)  # off on infrared by default
     assert got != a_id
     got, a_id = h29._area_run(relink_area_at_loss=True)  # the defaults: relinked by the median of its boxes
     assert got == a_id

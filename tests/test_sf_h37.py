@@ -92,7 +92,9 @@ def test_jump_back_guards_a_box_of_another_size_and_a_long_loss():
 
 
 def _area_run(ir=True, **kw):
-    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0, **kw}))
+    # relink_shape_min_n_ir (40 since session 31's rule O) also relinks this case: off here, to test the median alone
+    c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0, "relink_shape_min_n_ir": 0,
+                                          **kw}))
     a, v = [[40, 60], [48, 64], [44, 62]], [[3, 0]] * 3
     w = [[30, 52], [70, 70], [40, 60], [48, 64], [44, 62], [56, 66]]  # the last box: 44 x 22 px (12 x 8 before)
     e = np.zeros((0, 2))

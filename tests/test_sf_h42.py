@@ -1,7 +1,7 @@
 """Session 31 (issue #8, helper h42): ``relink_shape_block_s_ir`` and ``relink_shape_min_n_ir``, the relink's
 shape checks and a small boat's box widened over a neighbour's feature (sim ``ir`` 53 at 39.4 s, ``ir`` 43 at
 25.0 s: the boxes below).  Both on infrared frames only; off until session 31's rule N made them the defaults
-(``relink_shape_block_s_ir`` 1 s, ``relink_shape_min_n_ir`` 5), so the cases below start from them off."""
+(``relink_shape_block_s_ir`` 1 s, ``relink_shape_min_n_ir`` 5, 40 since rule O), so the cases below start from them off."""
 
 import numpy as np
 
@@ -32,7 +32,7 @@ def _clusterer(ir=True, **kw):
 
 def test_on_by_default_since_rule_n():
     p = ClusterParams()
-    assert p.relink_shape_block_s_ir == 1.0 and p.relink_shape_min_n_ir == 5 and p.relink_shape_min_grown_ir == 2.0
+    assert p.relink_shape_block_s_ir == 1.0 and p.relink_shape_min_n_ir == 40 and p.relink_shape_min_grown_ir == 2.0
     # the defaults give ir 53's case the answer of the step on
     c = FeatureClusterer(ClusterParams())
     c._ir = True

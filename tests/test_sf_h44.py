@@ -29,8 +29,9 @@ def _inb(near_h, ir=True):
     return xy[inb, 0].tolist()
 
 
-def test_off_by_default():
-    assert ClusterParams().box_anchor_near_h_ir == 0.0
+def test_on_by_default_since_rule_o():
+    assert ClusterParams().box_anchor_near_h_ir == 0.5  # session 31's rule O
+    assert sorted(_inb(ClusterParams().box_anchor_near_h_ir)) == sorted(_inb(0.5))
 
 
 def test_one_member_inside_keeps_the_far_one_when_off():

@@ -3227,7 +3227,8 @@ class ClusterParams:
     ``relink_jump_back_iou_ir`` 0.4 with ``relink_jump_back_own_area`` 2, and ``relink_area_med_n_ir`` 5.
     Session 31 (rule N, on never-run ``pan`` 239-270 and ``ir`` 55-70) turned on, all on infrared frames only,
     ``grow_core_in_ir`` 0.1 with ``grow_core_hint_ir`` 0.6, ``merge_id_now_any_ir``, and
-    ``relink_shape_block_s_ir`` 1 with ``relink_shape_min_n_ir`` 5 (``relink_shape_min_grown_ir`` 2).
+    ``relink_shape_block_s_ir`` 1 with ``relink_shape_min_n_ir`` 5 (``relink_shape_min_grown_ir`` 2); then rule O
+    (on never-run ``ir`` 71-86) ``relink_shape_min_n_ir`` 40 and ``box_anchor_near_h_ir`` 0.5 (h44).
     Where a field's text above says "off", that is the value that turns it off."""
 
     dmax: float = 0.31
@@ -3458,7 +3459,7 @@ class ClusterParams:
     relink_app_min_w_ir: bool = False
     box_anchor_far_h_ir: float = 1.0
     box_anchor_far_minority_ir: bool = True
-    box_anchor_near_h_ir: float = 0.0
+    box_anchor_near_h_ir: float = 0.5
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -3482,7 +3483,7 @@ class ClusterParams:
     relink_jump_back_own_area: float = 2.0
     relink_area_med_n_ir: int = 5
     relink_shape_block_s_ir: float = 1.0
-    relink_shape_min_n_ir: int = 5
+    relink_shape_min_n_ir: int = 40
     relink_shape_any_ir: bool = False
     relink_shape_min_grown_ir: float = 2.0
     relink_shape_any_area: float = 4.0
