@@ -91,3 +91,21 @@ def hull_lost_then_moved(moves, boats=None, dys=None, dxs=None, shape=(160, 240)
         img = dark_box_sea(shape, box, fi, dx=int(dx) + ex, boat=True if boats is None else boats[j])
         out.append(c.update(snap(*none, 0.1 * fi, fi, [], h=shift(m)), img)[1])
     return c, ident, out
+
+
+LINEAR_CAMERA_F = 200.0  # px per radian
+
+
+class LinearCamera:
+    """A fixed camera for the side-edge relink tests: azimuth 180 deg at column 120, elevation 0 at row 80,
+    ``LINEAR_CAMERA_F`` px per radian."""
+
+    def pixel_to_azel(self, u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        f = LINEAR_CAMERA_F
+        return 180.0 + np.degrees((u - 120.0) / f), np.degrees(-(v - 80.0) / f)
+
+    def azel_to_pixel(self, az, el):
+        az, el = np.asarray(az, float), np.asarray(el, float)
+        f = LINEAR_CAMERA_F
+        return 120.0 + np.radians(az - 180.0) * f, 80.0 - np.radians(el) * f, np.ones(az.shape, bool)

@@ -8,24 +8,11 @@ near-side pair for ``relink_app_margin``."""
 
 import numpy as np
 
-from _feature_snap import COAST_BASE, dark_box_sea, snap
+from _feature_snap import COAST_BASE, LinearCamera, dark_box_sea, snap
 from seawatch.track.feature_clusters import ClusterParams, FeatureClusterer
 
 SHAPE = (160, 240)
 NONE = np.zeros((0, 2))
-F = 200.0  # px per radian
-
-
-class LinearCamera:
-    """A fixed camera: azimuth 180 deg at column 120, elevation 0 at row 80, F px per radian."""
-
-    def pixel_to_azel(self, u, v):
-        u, v = np.asarray(u, float), np.asarray(v, float)
-        return 180.0 + np.degrees((u - 120.0) / F), np.degrees(-(v - 80.0) / F)
-
-    def azel_to_pixel(self, az, el):
-        az, el = np.asarray(az, float), np.asarray(el, float)
-        return 120.0 + np.radians(az - 180.0) * F, 80.0 - np.radians(el) * F, np.ones(az.shape, bool)
 
 
 BASE = {"relink_predict_side_s": 10.0, "relink_predict_side_win_s": 1.0}
