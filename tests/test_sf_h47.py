@@ -56,3 +56,25 @@ def test_a_chain_along_the_hull_is_kept():
 
 def test_visible_frames_unchanged():
     assert _inb(3.0, ir=False) == _inb(0.0, ir=False)
+
+
+def _inb_one(one):
+    cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=3.0, box_anchor_gap_one_ir=one))
+    cl._ir = True
+    cl._cluster_boxes = {207: np.array([281.0, 243.0, 8.0, 16.0])}  # ir 86 at 43.4 s
+    cl._cluster_boxes_t = cl._cluster_boxes_now = 434
+    x = np.array([285.0, 325.0, 333.0, 380.0, 384.0])  # one sailboat feature left, four of the cargo ship
+    xy = np.stack([x, np.full(len(x), 250.0)], axis=1)
+    v = np.stack([np.full(len(x), -0.8), np.zeros(len(x))], axis=1)
+    k = np.zeros(len(xy), np.int64)
+    s = snap(xy, v, 43.5, 435, shape=(480, 640))
+    anchor = cl._box_anchor(s, np.array([207]), k, xy)
+    inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
+    inb = cl._anchor_far_out(k, 1, inb, anchor, cl.params.box_anchor_far_h_ir, xy[:, 0])
+    return sorted(xy[inb, 0].tolist())
+
+
+def test_one_near_member():
+    assert ClusterParams().box_anchor_gap_one_ir is False
+    assert _inb_one(False) == [285.0, 325.0, 333.0, 380.0, 384.0]  # one member near: nobody leaves
+    assert _inb_one(True) == [285.0]  # 285 -> 325 is 40 px = 5 widths: the cargo's four leave

@@ -3044,7 +3044,9 @@ class ClusterParams:
     from those members: not joined to them by a chain of the cluster's box members, sorted by x, each at most
     this many times the anchor box's smaller side from the next (a group of another boat's features, beyond a
     gap; the smaller side, since a small boat's grown box can grow tall for a frame over a sail or a mast:
-    sim ``ir`` 86 at 37.1 s, 8 x 23 px). The minority rule
+    sim ``ir`` 86 at 37.1 s, 8 x 23 px).  ``box_anchor_gap_one_ir`` (False: off; with it): the gap rule acts also where only one
+    box member lies inside or near the anchor box (``box_anchor_far_h_ir`` needs two): sim ``ir`` 86 at 43.5 s, one
+    of the sailboat's two features gone for a frame, and its box went over the cargo ship's four. The minority rule
     keeps the rest of a boat whose last box was a part of it (its members run on along the hull without a gap).
     (sim ``ir`` 79 at 36.2 s: two cargo features joined the sailboat's graph cluster, which held one of the cargo's
     stern already; three far against three near, so the box went over both boats, 109 x 30 px, and at the graph's
@@ -3475,6 +3477,7 @@ class ClusterParams:
     box_anchor_far_minority_ir: bool = True
     box_anchor_near_h_ir: float = 0.5
     box_anchor_gap_side_ir: float = 0.0
+    box_anchor_gap_one_ir: bool = False
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -4019,7 +4022,7 @@ class FeatureClusterer:
         ok = n_in >= 2
         apart = None
         if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
-            two = ok
+            two = n_in >= (1 if self.params.box_anchor_gap_one_ir else 2)
             ok = ok & (np.bincount(k[far], minlength=n) < n_in)
             gap_h = self.params.box_anchor_gap_side_ir
             if gap_h > 0 and x is not None and (two & ~ok).any() and self._anchor_h is not None:
