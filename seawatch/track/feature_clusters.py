@@ -3046,7 +3046,12 @@ class ClusterParams:
     gap; the smaller side, since a small boat's grown box can grow tall for a frame over a sail or a mast:
     sim ``ir`` 86 at 37.1 s, 8 x 23 px).  ``box_anchor_gap_one_ir`` (False: off; with it): the gap rule acts also where only one
     box member lies inside or near the anchor box (``box_anchor_far_h_ir`` needs two): sim ``ir`` 86 at 43.5 s, one
-    of the sailboat's two features gone for a frame, and its box went over the cargo ship's four. The minority rule
+    of the sailboat's two features gone for a frame, and its box went over the cargo ship's four.
+    ``box_anchor_gap_steady_ir`` (False: off; with it): the gap rule acts only in clusters whose anchor box
+    overlapped (IoU >= 0.1) their box of the frame before it: an anchor that is a one-frame jump is not kept (sim
+    ``ir`` 82 at 12.0 s: the cargo ship's cluster held two sailboat features; for one frame only those were left
+    and its box jumped onto the sailboat; the next frame the gap rule kept it there against the cargo's four, and
+    the sailboat was reported under that cluster's new identity). The minority rule
     keeps the rest of a boat whose last box was a part of it (its members run on along the hull without a gap).
     (sim ``ir`` 79 at 36.2 s: two cargo features joined the sailboat's graph cluster, which held one of the cargo's
     stern already; three far against three near, so the box went over both boats, 109 x 30 px, and at the graph's
@@ -3478,6 +3483,7 @@ class ClusterParams:
     box_anchor_near_h_ir: float = 0.5
     box_anchor_gap_side_ir: float = 0.0
     box_anchor_gap_one_ir: bool = False
+    box_anchor_gap_steady_ir: bool = False
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -3602,12 +3608,14 @@ class FeatureClusterer:
         self._disp_anchor = None  # box_disp_two_anchor: the members inside their cluster's last box
         self._anchor_gap_h = None  # box_disp_two_far_h: each member's distance outside that box / its height
         self._anchor_h = None  # box_anchor_gap_side_ir: the smaller side of each member's anchor box
+        self._anchor_cids = None  # box_anchor_gap_steady_ir: the cluster identities of _box_anchor's call
         self._horizon = None
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
         self._dts: list = []  # the last frame intervals (s), for the age limit of _merged
         self._cluster_boxes: dict = {}  # cluster identity -> its box last frame (box_keep_last)
         self._cluster_boxes_t = -1  # frame index of _cluster_boxes
+        self._cluster_steady: set = set()  # box_anchor_gap_steady_ir: clusters whose box overlapped the one before
         self._cluster_boxes_now = -1  # frame index before this one
         self._grown_last: dict = {}  # cluster identity -> its grown box last frame (grow_hint)
         self._grown_last_t = -1  # frame index of _grown_last
@@ -3977,6 +3985,7 @@ class FeatureClusterer:
             return None
         nan4 = (np.nan,) * 4
         lb = np.array([last.get(int(c), nan4) for c in cids], np.float64).reshape(-1, 4)
+        self._anchor_cids = np.asarray(cids, np.int64)
         h = np.asarray(snap.homography, np.float64)
         if np.all(np.isfinite(h)):  # carried by the camera motion (both corners)
             c = np.concatenate([lb[:, :2], lb[:, :2] + lb[:, 2:]], axis=0)
@@ -4023,6 +4032,8 @@ class FeatureClusterer:
         apart = None
         if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
             two = n_in >= (1 if self.params.box_anchor_gap_one_ir else 2)
+            if self.params.box_anchor_gap_steady_ir and self._anchor_cids is not None:
+                two = two & np.isin(self._anchor_cids, np.fromiter(self._cluster_steady, np.int64, len(self._cluster_steady)))
             ok = ok & (np.bincount(k[far], minlength=n) < n_in)
             gap_h = self.params.box_anchor_gap_side_ir
             if gap_h > 0 and x is not None and (two & ~ok).any() and self._anchor_h is not None:
@@ -5553,6 +5564,18 @@ class FeatureClusterer:
                 grown = np.any(boxes != pre_grow, axis=1)  # the boxes that the growing changed
             boxes = self._size_filter(snap, cids, boxes, grown)
         if p.box_keep_last:
+            if self._ir and p.box_anchor_gap_steady_ir and p.box_anchor_gap_side_ir > 0:
+                # session 32 (h47): the clusters whose box overlaps their box of the frame before
+                prev = self._cluster_boxes if self._cluster_boxes_t == self._cluster_boxes_now else {}
+                nan4 = (np.nan,) * 4
+                lb = np.array([prev.get(int(c), nan4) for c in cids], np.float64).reshape(-1, 4)
+                with np.errstate(invalid="ignore"):
+                    iw = np.minimum(boxes[:, 0] + boxes[:, 2], lb[:, 0] + lb[:, 2]) - np.maximum(boxes[:, 0], lb[:, 0])
+                    ih = np.minimum(boxes[:, 1] + boxes[:, 3], lb[:, 1] + lb[:, 3]) - np.maximum(boxes[:, 1], lb[:, 1])
+                    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+                    union = boxes[:, 2] * boxes[:, 3] + lb[:, 2] * lb[:, 3] - inter
+                    st = inter >= 0.1 * union
+                self._cluster_steady = {int(c) for c, ok in zip(cids, st) if ok}
             self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
             self._cluster_boxes_t = fi
         count = np.bincount(k, minlength=n)
