@@ -78,3 +78,25 @@ def test_one_near_member():
     assert ClusterParams().box_anchor_gap_one_ir is False
     assert _inb_one(False) == [285.0, 325.0, 333.0, 380.0, 384.0]  # one member near: nobody leaves
     assert _inb_one(True) == [285.0]  # 285 -> 325 is 40 px = 5 widths: the cargo's four leave
+
+
+def _inb_steady(steady):
+    cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=3.0, box_anchor_gap_steady_ir=True))
+    cl._ir = True
+    cl._cluster_boxes = {215: LAST_BOX.copy()}
+    cl._cluster_boxes_t = cl._cluster_boxes_now = 361
+    cl._cluster_steady = {215} if steady else set()
+    xy = np.stack([np.array(X), np.full(len(X), 253.0)], axis=1)
+    v = np.stack([np.array(VX), np.zeros(len(X))], axis=1)
+    k = np.zeros(len(xy), np.int64)
+    s = snap(xy, v, 36.2, 362, shape=(480, 640))
+    anchor = cl._box_anchor(s, np.array([215]), k, xy)
+    inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
+    inb = cl._anchor_far_out(k, 1, inb, anchor, cl.params.box_anchor_far_h_ir, xy[:, 0])
+    return sorted(xy[inb, 0].tolist())
+
+
+def test_steady_anchor_only():
+    assert ClusterParams().box_anchor_gap_steady_ir is False
+    assert _inb_steady(True) == X[:3]  # the anchor box overlapped the box before it: the gap rule acts
+    assert _inb_steady(False) == X  # a one-frame jump (ir 82 at 12.0 s): the minority rule's answer
