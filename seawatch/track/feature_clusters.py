@@ -3037,6 +3037,27 @@ class ClusterParams:
     319 beside the 8 x 10 px box at x 310, only 312 inside; a cargo ship's stern feature at x 361 drew the box to
     60 x 12 px, the next frame's anchor took it, and the sailboat's identity was lost at that wide box 3 s later).
 
+    Session 32 (h47, the sailboat's box drawn over the cargo ship on infrared): ``box_anchor_gap_side_ir`` (0: off;
+    infrared frames only; in the anchor box's smaller side, so scaled by the zoom; with ``box_anchor_far_h_ir``): where
+    ``box_anchor_far_minority_ir`` keeps a cluster's far members (they are not fewer than the members inside or
+    near the anchor box, of which there are at least two), a far member still leaves when it is spatially apart
+    from those members: not joined to them by a chain of the cluster's box members, sorted by x, each at most
+    this many times the anchor box's smaller side from the next (a group of another boat's features, beyond a
+    gap; the smaller side, since a small boat's grown box can grow tall for a frame over a sail or a mast:
+    sim ``ir`` 86 at 37.1 s, 8 x 23 px).  ``box_anchor_gap_one_ir`` (False: off; with it): the gap rule acts also where only one
+    box member lies inside or near the anchor box (``box_anchor_far_h_ir`` needs two): sim ``ir`` 86 at 43.5 s, one
+    of the sailboat's two features gone for a frame, and its box went over the cargo ship's four.
+    ``box_anchor_gap_steady_ir`` (False: off; with it): the gap rule acts only in clusters whose anchor box
+    overlapped (IoU >= 0.1) their box of the frame before it: an anchor that is a one-frame jump is not kept (sim
+    ``ir`` 82 at 12.0 s: the cargo ship's cluster held two sailboat features; for one frame only those were left
+    and its box jumped onto the sailboat; the next frame the gap rule kept it there against the cargo's four, and
+    the sailboat was reported under that cluster's new identity). The minority rule
+    keeps the rest of a boat whose last box was a part of it (its members run on along the hull without a gap).
+    (sim ``ir`` 79 at 36.2 s: two cargo features joined the sailboat's graph cluster, which held one of the cargo's
+    stern already; three far against three near, so the box went over both boats, 109 x 30 px, and at the graph's
+    split 0.8 s later the sailboat's identity stayed with the cargo's part: the wide box hid the jump from
+    ``split_follow_box``.)
+
     ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
     with two or more lost identities in its relink gate that were lost at the image's left or right edge
     takes none whose row under the horizon at the loss (its box's bottom less the horizon's row at its
@@ -3460,6 +3481,9 @@ class ClusterParams:
     box_anchor_far_h_ir: float = 1.0
     box_anchor_far_minority_ir: bool = True
     box_anchor_near_h_ir: float = 0.5
+    box_anchor_gap_side_ir: float = 0.0
+    box_anchor_gap_one_ir: bool = False
+    box_anchor_gap_steady_ir: bool = False
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -3583,12 +3607,15 @@ class FeatureClusterer:
         self._zoom = 1.0
         self._disp_anchor = None  # box_disp_two_anchor: the members inside their cluster's last box
         self._anchor_gap_h = None  # box_disp_two_far_h: each member's distance outside that box / its height
+        self._anchor_h = None  # box_anchor_gap_side_ir: the smaller side of each member's anchor box
+        self._anchor_cids = None  # box_anchor_gap_steady_ir: the cluster identities of _box_anchor's call
         self._horizon = None
         self._merged: list = []  # (feature identities, box) of last frame's reports joined from several clusters
         self._merged_t = float("nan")  # the time of the frame that made _merged
         self._dts: list = []  # the last frame intervals (s), for the age limit of _merged
         self._cluster_boxes: dict = {}  # cluster identity -> its box last frame (box_keep_last)
         self._cluster_boxes_t = -1  # frame index of _cluster_boxes
+        self._cluster_steady: set = set()  # box_anchor_gap_steady_ir: clusters whose box overlapped the one before
         self._cluster_boxes_now = -1  # frame index before this one
         self._grown_last: dict = {}  # cluster identity -> its grown box last frame (grow_hint)
         self._grown_last_t = -1  # frame index of _grown_last
@@ -3958,6 +3985,7 @@ class FeatureClusterer:
             return None
         nan4 = (np.nan,) * 4
         lb = np.array([last.get(int(c), nan4) for c in cids], np.float64).reshape(-1, 4)
+        self._anchor_cids = np.asarray(cids, np.int64)
         h = np.asarray(snap.homography, np.float64)
         if np.all(np.isfinite(h)):  # carried by the camera motion (both corners)
             c = np.concatenate([lb[:, :2], lb[:, :2] + lb[:, 2:]], axis=0)
@@ -3978,9 +4006,10 @@ class FeatureClusterer:
                 gx = np.maximum(np.maximum(bb[:, 0] - xy[:, 0], xy[:, 0] - bb[:, 0] - bb[:, 2]), 0.0)
                 gy = np.maximum(np.maximum(bb[:, 1] - xy[:, 1], xy[:, 1] - bb[:, 1] - bb[:, 3]), 0.0)
                 self._anchor_gap_h = np.maximum(gx, gy) / np.maximum(bb[:, 3], 1.0)
+                self._anchor_h = np.maximum(np.minimum(bb[:, 2], bb[:, 3]), 1.0)
         return inside if inside.any() else None
 
-    def _anchor_far_out(self, k, n, inb, anchor, far_h):
+    def _anchor_far_out(self, k, n, inb, anchor, far_h, x=None):
         """``box_anchor_far_h_ir`` (session 30, h36): the box members (``inb``, ``k`` their cluster
         index, ``n`` clusters) lying more than ``far_h`` times their cluster's last box height outside
         that box (``self._anchor_gap_h``, made by :meth:`_box_anchor`) leave the box, in the clusters
@@ -4000,10 +4029,39 @@ class FeatureClusterer:
         else:
             n_in = np.bincount(k[inb & anchor], minlength=n)
         ok = n_in >= 2
+        apart = None
         if self.params.box_anchor_far_minority_ir:  # only a minority of the box members leaves
-            ok &= np.bincount(k[far], minlength=n) < n_in
-        far &= ok[k]
+            two = n_in >= (1 if self.params.box_anchor_gap_one_ir else 2)
+            if self.params.box_anchor_gap_steady_ir and self._anchor_cids is not None:
+                two = two & np.isin(self._anchor_cids, np.fromiter(self._cluster_steady, np.int64, len(self._cluster_steady)))
+            ok = ok & (np.bincount(k[far], minlength=n) < n_in)
+            gap_h = self.params.box_anchor_gap_side_ir
+            if gap_h > 0 and x is not None and (two & ~ok).any() and self._anchor_h is not None:
+                # session 32 (h47): far members beyond an x gap from the near ones leave all the same
+                apart = self._apart_x(k, n, inb, near if near_h > 0 else inb & anchor, x, gap_h) & two[k]
+        far &= ok[k] if apart is None else (ok[k] | apart)
         return inb & ~far
+
+    def _apart_x(self, k, n, inb, near, x, gap_h):
+        """``box_anchor_gap_side_ir`` (session 32, h47): the box members (``inb``) not joined to their cluster's
+        ``near`` members by a chain of the cluster's box members sorted by x, each step at most ``gap_h`` times
+        the anchor box's smaller side (``self._anchor_h``); arrays only (one sort)."""
+        ib = np.flatnonzero(inb)
+        out = np.zeros(len(inb), bool)
+        if len(ib) == 0:
+            return out
+        kb = k[ib]
+        xb = np.asarray(x, np.float64)[ib]
+        o = np.lexsort((xb, kb))
+        ks, xs = kb[o], xb[o]
+        hs = self._anchor_h[ib][o]
+        brk = np.ones(len(o), bool)
+        with np.errstate(invalid="ignore"):
+            brk[1:] = (ks[1:] != ks[:-1]) | ~(np.diff(xs) <= gap_h * hs[1:])
+        seg = np.cumsum(brk) - 1
+        has = np.bincount(seg, weights=near[ib][o].astype(np.float64), minlength=int(seg[-1]) + 1) > 0
+        out[ib[o]] = ~has[seg]
+        return out
 
     def _split_for_report(self, snap: FeatureSnapshot, labels: np.ndarray, cids: np.ndarray):
         """``params.split_dv_px_s``: the members of a cluster that move apart from the part
@@ -5325,7 +5383,7 @@ class FeatureClusterer:
             anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
             inb = _box_members(k, fv, n, dv, anchor)
             if self._ir and p.box_anchor_far_h_ir > 0 and anchor is not None:
-                inb = self._anchor_far_out(k, n, inb, anchor, p.box_anchor_far_h_ir)
+                inb = self._anchor_far_out(k, n, inb, anchor, p.box_anchor_far_h_ir, xy[:, 0])
         else:
             inb = None
         if p.box_disp_s > 0:
@@ -5506,6 +5564,18 @@ class FeatureClusterer:
                 grown = np.any(boxes != pre_grow, axis=1)  # the boxes that the growing changed
             boxes = self._size_filter(snap, cids, boxes, grown)
         if p.box_keep_last:
+            if self._ir and p.box_anchor_gap_steady_ir and p.box_anchor_gap_side_ir > 0:
+                # session 32 (h47): the clusters whose box overlaps their box of the frame before
+                prev = self._cluster_boxes if self._cluster_boxes_t == self._cluster_boxes_now else {}
+                nan4 = (np.nan,) * 4
+                lb = np.array([prev.get(int(c), nan4) for c in cids], np.float64).reshape(-1, 4)
+                with np.errstate(invalid="ignore"):
+                    iw = np.minimum(boxes[:, 0] + boxes[:, 2], lb[:, 0] + lb[:, 2]) - np.maximum(boxes[:, 0], lb[:, 0])
+                    ih = np.minimum(boxes[:, 1] + boxes[:, 3], lb[:, 1] + lb[:, 3]) - np.maximum(boxes[:, 1], lb[:, 1])
+                    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+                    union = boxes[:, 2] * boxes[:, 3] + lb[:, 2] * lb[:, 3] - inter
+                    st = inter >= 0.1 * union
+                self._cluster_steady = {int(c) for c, ok in zip(cids, st) if ok}
             self._cluster_boxes = {int(c): boxes[i].copy() for i, c in enumerate(cids)}
             self._cluster_boxes_t = fi
         count = np.bincount(k, minlength=n)
