@@ -3057,6 +3057,17 @@ class ClusterParams:
     stern already; three far against three near, so the box went over both boats, 109 x 30 px, and at the graph's
     split 0.8 s later the sailboat's identity stayed with the cargo's part: the wide box hid the jump from
     ``split_follow_box``.)
+    Session 32 (h46, the sailboat's box drawn over the cargo ship on infrared): ``box_anchor_far_gap_h_ir`` (0: off;
+    infrared frames only; in heights of the anchor box, as ``box_anchor_far_h_ir``, and with it and
+    ``box_anchor_far_minority_ir``): the far members leave even where they are not fewer than the members inside the
+    anchor box, when the nearest of them lies more than this many of its heights outside it and the anchor box was
+    grown in the frame before (``grow_boxes`` found the boat there): a separate group of features, another boat held
+    in the same graph cluster, not the rest of a boat whose box was held on a part. (Where the anchor box is only its
+    members' box it may itself lie on the wrong boat: sim ``ir`` 42 at 38.3 s, the sailboat's 10 x 7 px box on two
+    cargo-stern members, its own two members 39 px away; leaving those out drew the box onto the cargo ship.)
+    Sim ``ir`` 68 at 38.0 s: the sailboat's 11 x 16 px box with 3 members at x 285-295 and 3 of the cargo ship's at
+    x 332-389 (2.2-6 heights outside, all ~-1 px/s) in one graph cluster; 3 against 3 is no minority, the box became
+    108 x 20 px, the next frame's anchor took it, and from 40.4 s the cargo ship carried the sailboat's identity.
 
     ``relink_side_row_margin`` (session 29, h33; px, not scaled; 0: off; needs a horizon): a new cluster
     with two or more lost identities in its relink gate that were lost at the image's left or right edge
@@ -3484,6 +3495,7 @@ class ClusterParams:
     box_anchor_gap_side_ir: float = 0.0
     box_anchor_gap_one_ir: bool = False
     box_anchor_gap_steady_ir: bool = False
+    box_anchor_far_gap_h_ir: float = 0.0
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
     relink_side_app_near_margin: bool = False
@@ -4009,7 +4021,7 @@ class FeatureClusterer:
                 self._anchor_h = np.maximum(np.minimum(bb[:, 2], bb[:, 3]), 1.0)
         return inside if inside.any() else None
 
-    def _anchor_far_out(self, k, n, inb, anchor, far_h, x=None):
+    def _anchor_far_out(self, k, n, inb, anchor, far_h, x=None, cids=None):
         """``box_anchor_far_h_ir`` (session 30, h36): the box members (``inb``, ``k`` their cluster
         index, ``n`` clusters) lying more than ``far_h`` times their cluster's last box height outside
         that box (``self._anchor_gap_h``, made by :meth:`_box_anchor`) leave the box, in the clusters
@@ -4034,7 +4046,17 @@ class FeatureClusterer:
             two = n_in >= (1 if self.params.box_anchor_gap_one_ir else 2)
             if self.params.box_anchor_gap_steady_ir and self._anchor_cids is not None:
                 two = two & np.isin(self._anchor_cids, np.fromiter(self._cluster_steady, np.int64, len(self._cluster_steady)))
-            ok = ok & (np.bincount(k[far], minlength=n) < n_in)
+            minority = np.bincount(k[far], minlength=n) < n_in
+            gap_gh = self.params.box_anchor_far_gap_h_ir
+            if gap_gh > 0 and cids is not None and self._grown_last \
+                    and self._grown_last_t == self._cluster_boxes_now:
+                # session 32 (h46): or a group apart, its nearest member gap_gh heights out, where the
+                # anchor box was grown (the grower found the boat there, not a few members' box)
+                g_min = np.full(n, np.inf)
+                np.minimum.at(g_min, k[far], gh[far])
+                grown = np.array([int(c) in self._grown_last for c in cids], bool)
+                minority |= grown & (g_min > gap_gh)
+            ok = ok & minority
             gap_h = self.params.box_anchor_gap_side_ir
             if gap_h > 0 and x is not None and (two & ~ok).any() and self._anchor_h is not None:
                 # session 32 (h47): far members beyond an x gap from the near ones leave all the same
@@ -5383,7 +5405,7 @@ class FeatureClusterer:
             anchor = self._box_anchor(snap, cids, k, xy) if p.box_keep_last else None
             inb = _box_members(k, fv, n, dv, anchor)
             if self._ir and p.box_anchor_far_h_ir > 0 and anchor is not None:
-                inb = self._anchor_far_out(k, n, inb, anchor, p.box_anchor_far_h_ir, xy[:, 0])
+                inb = self._anchor_far_out(k, n, inb, anchor, p.box_anchor_far_h_ir, xy[:, 0], cids)
         else:
             inb = None
         if p.box_disp_s > 0:
