@@ -3,7 +3,8 @@ members inside or near the anchor box leave the box even where ``box_anchor_far_
 them.  The members are sim ``ir`` 79's at 36.2 s (defaults): the sailboat's cluster 215 holds its features
 at x 288, 291, 298 beside its 8 x 11 px box of the frame before (x 288) and three cargo-ship features at
 x 332, 375, 388, all moving alike; three far against three near, so the minority rule kept them and the box
-went over both boats.  Off by default, infrared frames only."""
+went over both boats.  Infrared frames only; the default since session 32's rule P (3 sides, with
+``box_anchor_gap_one_ir`` and ``box_anchor_gap_steady_ir``)."""
 import numpy as np
 
 from _feature_snap import snap
@@ -14,8 +15,14 @@ VX = [-0.5, -0.7, -0.7, -0.6, -0.6, -1.0]
 LAST_BOX = np.array([288.0, 248.0, 8.0, 11.0])  # cluster 215's box at 36.1 s
 
 
-def _inb(gap_h, ir=True, x=X, last=LAST_BOX):
-    cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=gap_h))
+def _inb(gap_h, ir=True, x=X, last=LAST_BOX, steady=False):
+    # the step alone (its two companions off) unless steady: then the defaults, the cluster's box steady
+    if steady:
+        cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=gap_h))
+        cl._cluster_steady = {215}
+    else:
+        cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=gap_h, box_anchor_gap_one_ir=False,
+                                            box_anchor_gap_steady_ir=False))
     cl._ir = ir
     cl._cluster_boxes = {215: last.copy()}
     cl._cluster_boxes_t = cl._cluster_boxes_now = 361
@@ -30,9 +37,11 @@ def _inb(gap_h, ir=True, x=X, last=LAST_BOX):
     return sorted(xy[inb, 0].tolist())
 
 
-def test_off_by_default():
-    assert ClusterParams().box_anchor_gap_side_ir == 0.0
-    assert _inb(ClusterParams().box_anchor_gap_side_ir) == X  # the minority rule keeps the cargo's three
+def test_default():
+    p = ClusterParams()
+    assert (p.box_anchor_gap_side_ir, p.box_anchor_gap_one_ir, p.box_anchor_gap_steady_ir) == (3.0, True, True)
+    assert _inb(p.box_anchor_gap_side_ir, steady=True) == X[:3]  # the defaults drop the cargo's three
+    assert _inb(0.0) == X  # off: the minority rule keeps them
 
 
 def test_far_group_beyond_a_gap_leaves():
@@ -59,7 +68,8 @@ def test_visible_frames_unchanged():
 
 
 def _inb_one(one):
-    cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=3.0, box_anchor_gap_one_ir=one))
+    cl = FeatureClusterer(ClusterParams(box_anchor_gap_side_ir=3.0, box_anchor_gap_one_ir=one,
+                                        box_anchor_gap_steady_ir=False))
     cl._ir = True
     cl._cluster_boxes = {207: np.array([281.0, 243.0, 8.0, 16.0])}  # ir 86 at 43.4 s
     cl._cluster_boxes_t = cl._cluster_boxes_now = 434
@@ -75,7 +85,7 @@ def _inb_one(one):
 
 
 def test_one_near_member():
-    assert ClusterParams().box_anchor_gap_one_ir is False
+    assert ClusterParams().box_anchor_gap_one_ir is True  # session 32's rule P
     assert _inb_one(False) == [285.0, 325.0, 333.0, 380.0, 384.0]  # one member near: nobody leaves
     assert _inb_one(True) == [285.0]  # 285 -> 325 is 40 px = 5 widths: the cargo's four leave
 
@@ -97,6 +107,6 @@ def _inb_steady(steady):
 
 
 def test_steady_anchor_only():
-    assert ClusterParams().box_anchor_gap_steady_ir is False
+    assert ClusterParams().box_anchor_gap_steady_ir is True  # session 32's rule P
     assert _inb_steady(True) == X[:3]  # the anchor box overlapped the box before it: the gap rule acts
     assert _inb_steady(False) == X  # a one-frame jump (ir 82 at 12.0 s): the minority rule's answer

@@ -3038,7 +3038,8 @@ class ClusterParams:
     60 x 12 px, the next frame's anchor took it, and the sailboat's identity was lost at that wide box 3 s later).
 
     Session 32 (h47, the sailboat's box drawn over the cargo ship on infrared): ``box_anchor_gap_side_ir`` (0: off;
-    infrared frames only; in the anchor box's smaller side, so scaled by the zoom; with ``box_anchor_far_h_ir``): where
+    3.0, with the two below on, the default since session 32's rule P; infrared frames only; in the anchor box's
+    smaller side, so scaled by the zoom; with ``box_anchor_far_h_ir``): where
     ``box_anchor_far_minority_ir`` keeps a cluster's far members (they are not fewer than the members inside or
     near the anchor box, of which there are at least two), a far member still leaves when it is spatially apart
     from those members: not joined to them by a chain of the cluster's box members, sorted by x, each at most
@@ -3492,9 +3493,9 @@ class ClusterParams:
     box_anchor_far_h_ir: float = 1.0
     box_anchor_far_minority_ir: bool = True
     box_anchor_near_h_ir: float = 0.5
-    box_anchor_gap_side_ir: float = 0.0
-    box_anchor_gap_one_ir: bool = False
-    box_anchor_gap_steady_ir: bool = False
+    box_anchor_gap_side_ir: float = 3.0
+    box_anchor_gap_one_ir: bool = True
+    box_anchor_gap_steady_ir: bool = True
     box_anchor_far_gap_h_ir: float = 0.0
     relink_side_app_near_px: float = 0.0
     relink_side_app_near_ir: bool = False
