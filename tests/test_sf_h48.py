@@ -46,6 +46,8 @@ def test_off_by_default():
     p = ClusterParams()
     assert p.relink_near_refused_px == 0.0
     assert p.relink_near_refused_ir is False
+    assert p.relink_near_refused_newer is False
+    assert p.relink_near_refused_far_out is False
 
 
 def test_far_identity_not_taken_when_the_near_one_is_refused():
@@ -61,3 +63,15 @@ def test_near_identity_still_taken_and_far_one_without_near():
     b, a, n = run(x_new=120, relink_size_ratio=3.0, relink_near_refused_px=10.0)  # nothing near: B's as before
     b0, a0, n0 = run(x_new=120, relink_size_ratio=3.0)
     assert n == n0
+
+
+def test_newer_keeps_a_far_identity_lost_after_the_near_one():
+    # B and A are lost together (0.6 s): B is not lost after A, so B stays withheld with the newer guard
+    b, a, n = run(relink_size_ratio=3.0, relink_near_refused_px=10.0, relink_near_refused_newer=True)
+    assert n not in (a, b) and n is not None
+
+
+def test_far_out_keeps_a_far_identity_in_the_image():
+    # B's expected box is in the image (x 38): with the guard it is not withheld (taken as with the step off)
+    b, a, n = run(relink_size_ratio=3.0, relink_near_refused_px=10.0, relink_near_refused_far_out=True)
+    assert n == b
