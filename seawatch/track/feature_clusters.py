@@ -3128,6 +3128,26 @@ class ClusterParams:
     from its expected box; its heights nearer the edge passed, and without them it took the tug's identity
     (4 -> 6 switches).
 
+    ``relink_near_refused_px`` (session 32, h48; px, times the zoom; 0: off): a new cluster with a lost
+    identity (not present, in view) expected within this gap of its box (box edge to box edge) that a check
+    refused (its height, size, look, ...) is given no lost identity expected further away than this gap this
+    frame: a boat coming back in part is not named after another boat lost far away (it stays under its own
+    identity, held tentative by ``relink_hold_s`` while ``relink_retry_s`` may still give it its own).  On sim
+    ``pan`` 244 at the pan's return (31.2 s, zoom 2.76) the sailboat's hull came back as a 16 px high cluster 3 px
+    from the sailboat's expected box, refused by ``relink_side_h_ratio`` (its heights 53 px at this zoom), and
+    took the tug's identity, lost at the left edge 13.5 s before and expected 391 px away (the gate, scaled by
+    the zoom, 393 px); the tug then took the sailboat's (2 switches); 255 and 270 the same.
+    ``relink_near_refused_ir`` (False: visible frames only; True: infrared too).
+    ``relink_near_refused_newer`` (False: off; with ``relink_near_refused_px``): only the far identities lost
+    before the last-lost of the refused near ones are withheld (the boat last seen there is the newer loss): on
+    ``pan`` 240 and 243 (33.0-33.4 s) the tug's new cluster lay 7 px from an identity lost 20 s before (a 0 px
+    wide sliver; a thin 91 x 8 px box), refused, and lost its own tug identity (lost later, 30-42 px away).
+    ``relink_near_refused_far_out`` (False: off; with ``relink_near_refused_px``): only far identities expected
+    wholly beyond the image's left or right edge are withheld (the pan's return: in 244, 255, 270 all the far
+    ones were); on sim ``pan`` 2 (11.1 s) the motorboat's new cluster,
+    10 px from its own wide grown box (refused), was withheld the identity lost 77 px away in mid-frame 9.5 s
+    before, then reported under its own for a frame and renamed (1 -> 2 switches).
+
     ``relink_predict_side_s`` (session 30, h39; seconds; 0: off): an identity lost at the image's left or
     right edge may also be relinked where its own motion took it (a second place for the relink gap, as
     ``relink_alt_s``'s; its carried box, which the coast also reads, is unchanged): its corners'
@@ -3504,6 +3524,10 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     relink_side_h_clear_either: bool = False
+    relink_near_refused_px: float = 0.0
+    relink_near_refused_ir: bool = False
+    relink_near_refused_newer: bool = False
+    relink_near_refused_far_out: bool = False
     grow_core_in_ir: float = 0.1
     grow_core_hint_ir: float = 0.6
     merge_id_now_any_ir: bool = True
@@ -4396,6 +4420,11 @@ class FeatureClusterer:
                 c = int(cids[i])
                 if i not in seen_ and c in self._shape_wait and int(rep[i]) == c:
                     waiting[i] = self._shape_wait[c][1]
+        near_ref_px = (p.relink_near_refused_px * self._zoom
+                       if p.relink_near_refused_px > 0 and (p.relink_near_refused_ir or not self._ir) else 0.0)
+        near_ks = {}  # relink_near_refused_px: new cluster -> the lost identities expected within the gap
+        near_out = set()  # relink_near_refused_far_out: pairs whose expected box is not wholly beyond a side edge
+        img_w = float(snap.shape[1]) if getattr(snap, "shape", None) is not None else None
         for i in list(new) + sorted(retry) + sorted(waiting):
             for k, (tl, lb, vl) in self._lost.items():
                 if k in present:
@@ -4425,6 +4454,11 @@ class FeatureClusterer:
                         d, gate, lb = d_alt, np.inf, alt[1]
                 if view_wh is not None and not self._in_view(k, lb, view_wh):
                     continue  # session 22: its boat is out of the view
+                if near_ref_px > 0 and d <= near_ref_px:
+                    near_ks.setdefault(i, set()).add(k)  # relink_near_refused_px: expected right here
+                if (near_ref_px > 0 and p.relink_near_refused_far_out and img_w is not None
+                        and lb[0] + lb[2] > 0 and lb[0] < img_w):
+                    near_out.add((i, k))  # relink_near_refused_far_out: not beyond a side edge (kept)
                 if p.relink_hold_s > 0 and d <= gate:
                     size_ref.add(i)  # relink_hold_s: a lost identity in view within its gate
                 if p.relink_dy_h > 0 and (not p.relink_dy_same_zoom
@@ -4553,6 +4587,27 @@ class FeatureClusterer:
                     pairs.append((d, -o, i, k))
                     if side_row_on and k in self._lost_side and k in self._lost_row:
                         side_row[(i, k)] = self._lost_row[k]
+        if near_ks:
+            # relink_near_refused_px (session 32, h48): a new cluster with a lost identity expected right here
+            # but refused gets none expected further away this frame
+            paired = {(q[2], q[3]) for q in pairs}
+            held_near = {i for i, ks in near_ks.items() if any((i, k) not in paired for k in ks)}
+            if held_near and p.relink_near_refused_far_out:
+                # relink_near_refused_far_out: only the far identities expected wholly outside the image are withheld
+                far_keep = {(q[2], q[3]) for q in pairs if q[2] in held_near and q[0] > near_ref_px
+                            and (q[2], q[3]) in near_out}
+                held_pairs = [q for q in pairs if (q[2], q[3]) in far_keep]
+            else:
+                held_pairs = []
+            if held_near and p.relink_near_refused_newer:
+                # relink_near_refused_newer: only the identities lost before the last-lost refused one
+                lim = {i: max(self._lost[k][0] for k in near_ks[i] if (i, k) not in paired) for i in held_near}
+                pairs = [q for q in pairs if q[2] not in held_near or q[0] <= near_ref_px
+                         or self._lost[q[3]][0] > lim[q[2]] + 1e-9]
+            elif held_near:
+                pairs = [q for q in pairs if q[2] not in held_near or q[0] <= near_ref_px]
+            if held_pairs:
+                pairs = pairs + [q for q in held_pairs if q not in pairs]
         if blocked:  # relink_shape_block_s_ir: no identity now; the covered ones wait for it a while
             pairs = [q for q in pairs if q[2] not in blocked]
             for i in blocked:
