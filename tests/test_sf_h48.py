@@ -23,7 +23,10 @@ def run(x_new=150, tall=False, **kw):
     """Boat B (small, x 40) and boat A (44 px tall, x 150) seen 0.6 s, then both lost; at 9.0 s a small new
     cluster (8 px high, ``tall``: 44 px as A) at ``x_new``.  Returns B's and A's identities and the new cluster's identity."""
     c = FeatureClusterer(ClusterParams(**{**COAST_BASE, "grow_box": 0.0, "coast_s": 0.0,
-                                          "relink_appearance": False, **kw}))
+                                          "relink_appearance": False,
+                                          # the step and its guards isolated (on by default since rule Q)
+                                          "relink_near_refused_px": 0.0, "relink_near_refused_newer": False,
+                                          "relink_near_refused_far_out": False, **kw}))
     for k in range(6):
         _, tr = c.update(snap([[40, 80], [48, 86], [150, 50], [158, 90], [150, 70], [158, 60]],
                               [[8, 0]] * 2 + [[-8, 0]] * 4, 0.1 * k, k, [1, 2, 3, 4, 5, 6]),
@@ -42,12 +45,12 @@ def run(x_new=150, tall=False, **kw):
     return b_id, a_id, new_id
 
 
-def test_off_by_default():
-    p = ClusterParams()
-    assert p.relink_near_refused_px == 0.0
+def test_defaults():
+    p = ClusterParams()  # session 32's rule Q: on, visible frames only
+    assert p.relink_near_refused_px == 10.0
     assert p.relink_near_refused_ir is False
-    assert p.relink_near_refused_newer is False
-    assert p.relink_near_refused_far_out is False
+    assert p.relink_near_refused_newer is True
+    assert p.relink_near_refused_far_out is True
 
 
 def test_far_identity_not_taken_when_the_near_one_is_refused():

@@ -3128,7 +3128,7 @@ class ClusterParams:
     from its expected box; its heights nearer the edge passed, and without them it took the tug's identity
     (4 -> 6 switches).
 
-    ``relink_near_refused_px`` (session 32, h48; px, times the zoom; 0: off): a new cluster with a lost
+    ``relink_near_refused_px`` (session 32, h48; px, times the zoom; 0: off; 10, with the two guards below on, the default since session 32's rule Q): a new cluster with a lost
     identity (not present, in view) expected within this gap of its box (box edge to box edge) that a check
     refused (its height, size, look, ...) is given no lost identity expected further away than this gap this
     frame: a boat coming back in part is not named after another boat lost far away (it stays under its own
@@ -3524,10 +3524,10 @@ class ClusterParams:
     relink_side_h_clear_px: float = 0.0
     relink_side_h_clear_ir: bool = False
     relink_side_h_clear_either: bool = False
-    relink_near_refused_px: float = 0.0
+    relink_near_refused_px: float = 10.0
     relink_near_refused_ir: bool = False
-    relink_near_refused_newer: bool = False
-    relink_near_refused_far_out: bool = False
+    relink_near_refused_newer: bool = True
+    relink_near_refused_far_out: bool = True
     grow_core_in_ir: float = 0.1
     grow_core_hint_ir: float = 0.6
     merge_id_now_any_ir: bool = True
