@@ -73,12 +73,17 @@ def _inb_one(one):
     cl._ir = True
     cl._cluster_boxes = {207: np.array([281.0, 243.0, 8.0, 16.0])}  # ir 86 at 43.4 s
     cl._cluster_boxes_t = cl._cluster_boxes_now = 434
-    x = np.array([285.0, 325.0, 333.0, 380.0, 384.0])  # one sailboat feature left, four of the cargo ship
-    xy = np.stack([x, np.full(len(x), 250.0)], axis=1)
-    v = np.stack([np.full(len(x), -0.8), np.zeros(len(x))], axis=1)
+    x = [285.0, 325.0, 333.0, 380.0, 384.0]  # one sailboat feature left, four of the cargo ship
+    return _members_kept(cl, 207, x, [-0.8] * len(x), 250.0, 43.5, 435)
+
+
+def _members_kept(cl, cid, x, vx, y, t, frame):
+    """The box members of cluster ``cid`` (features at ``x``, row ``y``) that ``_anchor_far_out`` keeps."""
+    xy = np.stack([np.array(x), np.full(len(x), y)], axis=1)
+    v = np.stack([np.array(vx), np.zeros(len(x))], axis=1)
     k = np.zeros(len(xy), np.int64)
-    s = snap(xy, v, 43.5, 435, shape=(480, 640))
-    anchor = cl._box_anchor(s, np.array([207]), k, xy)
+    s = snap(xy, v, t, frame, shape=(480, 640))
+    anchor = cl._box_anchor(s, np.array([cid]), k, xy)
     inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
     inb = cl._anchor_far_out(k, 1, inb, anchor, cl.params.box_anchor_far_h_ir, xy[:, 0])
     return sorted(xy[inb, 0].tolist())
@@ -96,14 +101,7 @@ def _inb_steady(steady):
     cl._cluster_boxes = {215: LAST_BOX.copy()}
     cl._cluster_boxes_t = cl._cluster_boxes_now = 361
     cl._cluster_steady = {215} if steady else set()
-    xy = np.stack([np.array(X), np.full(len(X), 253.0)], axis=1)
-    v = np.stack([np.array(VX), np.zeros(len(X))], axis=1)
-    k = np.zeros(len(xy), np.int64)
-    s = snap(xy, v, 36.2, 362, shape=(480, 640))
-    anchor = cl._box_anchor(s, np.array([215]), k, xy)
-    inb = _box_members(k, v, 1, cl.params.box_dv_px_s, anchor)
-    inb = cl._anchor_far_out(k, 1, inb, anchor, cl.params.box_anchor_far_h_ir, xy[:, 0])
-    return sorted(xy[inb, 0].tolist())
+    return _members_kept(cl, 215, X, VX, 253.0, 36.2, 362)
 
 
 def test_steady_anchor_only():
